@@ -1,0 +1,52 @@
+//! Errors of rendering and parsing, each naming the file involved.
+
+use std::path::PathBuf;
+
+/// Why a case could not be rendered.
+#[derive(Debug, thiserror::Error)]
+pub enum RenderError {
+    /// The parameters describe something that cannot be built.
+    #[error("invalid case: {0}")]
+    InvalidCase(String),
+    /// The Tera template failed to parse or render.
+    #[error("template {template}: {message}")]
+    Template {
+        /// Template name or path.
+        template: String,
+        /// Tera's message with its causes.
+        message: String,
+    },
+    /// Writing into the run directory failed.
+    #[error("cannot write {path}: {source}")]
+    Write {
+        /// The file.
+        path: PathBuf,
+        /// The I/O error.
+        #[source]
+        source: std::io::Error,
+    },
+}
+
+/// Why a solver's output could not be read, with the file and line.
+#[derive(Debug, thiserror::Error)]
+pub enum ParseError {
+    /// The file does not exist or cannot be read.
+    #[error("cannot read {path}: {source}")]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// The I/O error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The file's content is not what the format says.
+    #[error("{}:{line}: {message}", path.display())]
+    Malformed {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line number where the problem was found.
+        line: usize,
+        /// What was expected and what was found.
+        message: String,
+    },
+}

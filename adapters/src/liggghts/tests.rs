@@ -1,0 +1,118 @@
+use std::path::Path;
+
+use super::*;
+use crate::ResolvedParameters;
+
+fn case_with(overrides: &[(&str, f64)]) -> Case {
+    let mut parameters = ResolvedParameters::defaults(PARAMETERS);
+    for (name, value) in overrides {
+        parameters.set(name, *value);
+    }
+    Case {
+        parameters,
+        seed: 1,
+    }
+}
+
+/// Renders `case` with the default template and returns the deck.
+fn check(case: &Case) -> String {
+    let dir = tempfile::tempdir().unwrap();
+    let adapter = Liggghts;
+    adapter
+        .render(
+            case,
+            adapter.default_template_name(),
+            adapter.default_template(),
+            dir.path(),
+        )
+        .unwrap();
+    for file in ["hopper.stl", "plug.stl", "sink.stl"] {
+        assert!(dir.path().join(file).exists(), "{file}");
+    }
+    std::fs::read_to_string(dir.path().join(DECK_FILE)).unwrap()
+}
+
+#[test]
+fn default_deck_snapshot() {
+    insta::assert_snapshot!("default_deck", check(&case_with(&[])));
+}
+
+#[test]
+fn vibrated_deck_with_valve_snapshot() {
+    let case = case_with(&[
+        ("valve_diameter", 0.012),
+        ("valve_gap", 0.010),
+        ("amplitude", 0.0009),
+        ("frequency", 50.0),
+        ("n_particles", 1500.0),
+    ]);
+    insta::assert_snapshot!("vibrated_valve_deck", check(&case));
+}
+
+#[test]
+fn impossible_geometry_is_refused_before_rendering() {
+    let case = case_with(&[("outlet_diameter", 0.003)]);
+    let error = Liggghts.check(&case).unwrap_err().to_string();
+    assert_eq!(
+        error,
+        "invalid case: outlet_diameter (0.003 m) must exceed coarse_diameter (0.004 m), or nothing can flow"
+    );
+}
+
+#[test]
+fn template_errors_name_the_template() {
+    let dir = tempfile::tempdir().unwrap();
+    let error = Liggghts
+        .render(
+            &case_with(&[]),
+            "my.in.tera",
+            "run {{ no_such_value }}",
+            dir.path(),
+        )
+        .unwrap_err()
+        .to_string();
+    assert!(error.starts_with("template my.in.tera: "), "{error}");
+    assert!(error.contains("no_such_value"), "{error}");
+}
+
+#[test]
+fn parse_reads_crossings_from_a_rendered_then_written_run() {
+    // A hand-written sensor dump: particle 1 crosses z = -0.005 between steps 100 and
+    // 150 (dt = 2e-5 s), moving down at 1 m/s from 0.5 mm above the plane.
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir_all(dir.path().join("post")).unwrap();
+    let snapshot = |step: u64, z: f64| {
+        format!(
+            "ITEM: TIMESTEP\n{step}\nITEM: NUMBER OF ATOMS\n1\nITEM: BOX BOUNDS mm mm mm\n0 1\n0 1\n0 1\nITEM: ATOMS id type radius mass x y z vx vy vz \n1 2 0.001 1e-5 0.003 0.004 {z} 0 0 -1 \n"
+        )
+    };
+    let dump = snapshot(100, -0.0045) + &snapshot(150, -0.0055);
+    std::fs::write(dir.path().join(SENSOR_DUMP), dump).unwrap();
+    std::fs::write(
+        dir.path().join(LOG_FILE),
+        "Loop time of 1.5 on 1 procs for 150 steps with 1 atoms\n",
+    )
+    .unwrap();
+    let observations = Liggghts.parse(&case_with(&[]), dir.path()).unwrap();
+    assert_eq!(observations.crossings.len(), 1);
+    let crossing = observations.crossings[0];
+    assert!((crossing.time_s - 125.0 * 2e-5).abs() < 1e-12);
+    assert!((crossing.radial_distance_m() - 0.005).abs() < 1e-12);
+    assert_eq!(observations.solver_loop_time_s, Some(1.5));
+}
+
+#[test]
+fn missing_output_names_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let error = Liggghts
+        .parse(&case_with(&[]), dir.path())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.starts_with(&format!(
+            "cannot read {}",
+            Path::new(dir.path()).join(LOG_FILE).display()
+        )),
+        "{error}"
+    );
+}

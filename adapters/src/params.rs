@@ -1,0 +1,46 @@
+//! Template parameters: what an adapter's template understands, with SI units.
+
+use std::collections::BTreeMap;
+
+/// One parameter of a solver template.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ParameterSpec {
+    /// Name used in study files and templates.
+    pub name: &'static str,
+    /// Value used when a study does not set it.
+    pub default: f64,
+    /// SI unit, for messages and reports (`m`, `Hz`, `kg/m^3`, `-`).
+    pub unit: &'static str,
+    /// Smallest physically meaningful value (inclusive).
+    pub min: f64,
+    /// Largest physically meaningful value (inclusive).
+    pub max: f64,
+    /// What it is.
+    pub description: &'static str,
+}
+
+/// Parameter values by name, after defaults, fixed values and factors are merged.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct ResolvedParameters(pub BTreeMap<String, f64>);
+
+impl ResolvedParameters {
+    /// Starts from every spec's default.
+    pub fn defaults(specs: &[ParameterSpec]) -> ResolvedParameters {
+        ResolvedParameters(
+            specs
+                .iter()
+                .map(|s| (s.name.to_string(), s.default))
+                .collect(),
+        )
+    }
+
+    /// Sets `name` to `value`.
+    pub fn set(&mut self, name: &str, value: f64) {
+        self.0.insert(name.to_string(), value);
+    }
+
+    /// The value of `name`; NaN when absent, which every range check then refuses.
+    pub fn get(&self, name: &str) -> f64 {
+        self.0.get(name).copied().unwrap_or(f64::NAN)
+    }
+}

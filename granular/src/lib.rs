@@ -1,0 +1,23 @@
+//! Hopper geometry and granular-flow responses for `orch`.
+//!
+//! Pure: this crate owns two formats (ASCII STL it writes into a `String`, and nothing
+//! else) and never touches files, processes or databases. Units are SI throughout:
+//! metres, seconds, kilograms; angles in degrees only where a name says `_deg`.
+//!
+//! - [`geometry`]: the conical hopper, its outlet plug, an internal valve and sensor
+//!   planes as triangle meshes ([`mesh::TriMesh`]).
+//! - [`crossing`]: turns particle sightings near a sensor plane into one crossing per
+//!   particle, with interpolated time and position.
+//! - [`responses`]: discharge rate, radial segregation and fine fraction in the outer
+//!   layers of the stream (SCIENCE.md §4), and the reference formulas.
+
+pub mod crossing;
+pub mod geometry;
+pub mod mesh;
+pub mod reference;
+pub mod responses;
+
+pub use crossing::{Crossing, CrossingDetector, Sighting};
+pub use geometry::{GeometryError, HopperGeometry};
+pub use mesh::TriMesh;
+pub use responses::{DischargeResponses, ResponseOptions};

@@ -90,6 +90,9 @@ pub trait SolverAdapter: Send + Sync {
     /// The default template's file name under `templates/<solver>/`, for messages.
     fn default_template_name(&self) -> &'static str;
 
+    /// How a user installs the solver, for the message when it is missing.
+    fn install_hint(&self) -> &'static str;
+
     /// The default template's text (compiled into the binary).
     fn default_template(&self) -> &'static str;
 

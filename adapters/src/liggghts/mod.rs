@@ -359,6 +359,10 @@ impl SolverAdapter for Liggghts {
         "templates/liggghts/hopper.in.tera"
     }
 
+    fn install_hint(&self) -> &'static str {
+        "apt-get install -y liggghts"
+    }
+
     fn default_template(&self) -> &'static str {
         include_str!("../../../templates/liggghts/hopper.in.tera")
     }

@@ -1,0 +1,342 @@
+//! Command-line interface: arguments, and one function per command.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+use clap::{Parser, Subcommand};
+
+use crate::driver::{self, Ending};
+use crate::exit_codes;
+use crate::executor::process::{self, ProcessHandle};
+use crate::project;
+use crate::status::{self, StudyDetail};
+use crate::store::{JobState, Store, StudyRow, StudyState};
+use crate::study::{Study, StudyError, Template};
+
+/// Runs design-of-experiments studies of DEM solvers and collects their responses.
+#[derive(Debug, Parser)]
+#[command(name = "orch", version, about, long_about = None)]
+pub struct Args {
+    /// Project directory holding orch.db and runs/ (default: `.orch` beside the study
+    /// file; for other commands `./.orch` and `./*/.orch`).
+    #[arg(long, global = true, env = "ORCH_PROJECT_DIR", value_name = "DIR")]
+    pub project_dir: Option<PathBuf>,
+
+    /// More log output (-v info, -vv debug); RUST_LOG overrides.
+    #[arg(short, long, global = true, action = clap::ArgAction::Count)]
+    pub verbose: u8,
+
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The commands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Validate a study file, record its design and run every job.
+    Submit {
+        /// The study file (YAML).
+        study_file: PathBuf,
+        /// Validate and print the design without writing or running anything.
+        #[arg(long)]
+        dry_run: bool,
+    },
+    /// Where every study, or every job of one study, stands.
+    Status {
+        /// A study name; without it, one line per study.
+        study: Option<String>,
+        /// Machine-readable JSON instead of a table.
+        #[arg(long)]
+        json: bool,
+    },
+    /// A job's solver output: stdout, stderr and the solver's log.
+    Logs {
+        /// `study/job` (e.g. `hopper-vibration/p003r0`), or a job name unique across studies.
+        job: String,
+        /// Lines from the end of each file; 0 prints whole files.
+        #[arg(long, default_value_t = 40)]
+        tail: usize,
+    },
+    /// Stop a study: running jobs are killed, pending ones will not start.
+    Cancel {
+        /// The study name.
+        study: String,
+    },
+    /// Continue an interrupted or cancelled study; re-attaches to jobs still running.
+    Resume {
+        /// The study name.
+        study: String,
+        /// Also run failed jobs again, with fresh attempts.
+        #[arg(long)]
+        retry_failed: bool,
+    },
+}
+
+/// An error in what the user gave: exit code [`exit_codes::BAD_INPUT`].
+#[derive(Debug, thiserror::Error)]
+#[error("{message}")]
+pub struct InputError {
+    /// What is wrong and what to do.
+    pub message: String,
+}
+
+fn input_error(message: impl Into<String>) -> anyhow::Error {
+    InputError { message: message.into() }.into()
+}
+
+/// Runs the command; returns the exit code.
+pub async fn run(args: Args) -> anyhow::Result<i32> {
+    let project_dir = args.project_dir.as_deref();
+    match args.command {
+        Command::Submit { study_file, dry_run } => submit(&study_file, project_dir, dry_run).await,
+        Command::Status { study, json } => show_status(project_dir, study.as_deref(), json).await,
+        Command::Logs { job, tail } => logs(project_dir, &job, tail).await,
+        Command::Cancel { study } => cancel(project_dir, &study).await,
+        Command::Resume { study, retry_failed } => resume(project_dir, &study, retry_failed).await,
+    }
+}
+
+fn study_error(error: StudyError) -> anyhow::Error {
+    input_error(format!("{error}\nFix the study file and submit it again; nothing was written."))
+}
+
+/// True when `program` can be started: an existing path, or a name found on PATH.
+fn program_exists(program: &str) -> bool {
+    if program.contains('/') {
+        return Path::new(program).is_file();
+    }
+    std::env::var_os("PATH")
+        .map(|paths| std::env::split_paths(&paths).any(|dir| dir.join(program).is_file()))
+        .unwrap_or(false)
+}
+
+async fn submit(study_file: &Path, project_dir: Option<&Path>, dry_run: bool) -> anyhow::Result<i32> {
+    let study = Study::load(study_file).map_err(study_error)?;
+    if dry_run {
+        println!("{}: {} design points × {} replicates = {} jobs on {}", study.name, study.points.len(), study.replicates, study.job_count(), study.adapter.name());
+        for (i, point) in study.points.iter().enumerate() {
+            let values: Vec<String> = study.factors.iter().zip(&point.natural).map(|(f, v)| format!("{} = {v:.6} {}", f.name, f.unit)).collect();
+            println!("  p{i:03}: {}", values.join(", "));
+        }
+        return Ok(exit_codes::SUCCESS);
+    }
+    let program = study.adapter.command(&study.case(&study.points[0], 0)).program;
+    if !program_exists(&program) {
+        return Err(input_error(format!(
+            "the {} solver `{program}` is not installed (not found on PATH); install it with `{}` and submit again; nothing was written",
+            study.adapter.name(),
+            study.adapter.install_hint()
+        )));
+    }
+    let project = project::for_study_file(study_file, project_dir)
+        .with_context(|| format!("cannot resolve the project directory of {}", study_file.display()))?;
+    let study_file = &std::path::absolute(study_file).unwrap_or_else(|_| study_file.to_path_buf());
+    let store = Store::open(&project).await?;
+    match store.study_by_name(&study.name).await? {
+        Some(existing) if existing.file_sha256 == study.file_sha256 => {
+            eprintln!("orch: study `{}` was submitted before from the same file; continuing it", study.name);
+            reopen(&store, &existing, false).await?;
+        }
+        Some(existing) => {
+            return Err(input_error(format!(
+                "a different study named `{}` already exists in {} (submitted from {}); give this one another `name:` or use another --project-dir",
+                study.name,
+                store.path().display(),
+                existing.file_path
+            )))
+        }
+        None => {
+            let runs = project.join(project::RUNS_DIR_NAME);
+            store.insert_study(&study, study_file, &runs).await?;
+            eprintln!(
+                "orch: study `{}`: {} jobs ({} points × {} replicates) on {}, at most {} at once; store {}",
+                study.name,
+                study.job_count(),
+                study.points.len(),
+                study.replicates,
+                study.adapter.name(),
+                study.executor.max_parallel,
+                store.path().display()
+            );
+        }
+    }
+    let row = store.study_by_name(&study.name).await?.context("the study vanished from the store")?;
+    drive(&store, &row, &study).await
+}
+
+/// Claims the study, drives it, releases it, and reports.
+async fn drive(store: &Store, row: &StudyRow, study: &Study) -> anyhow::Result<i32> {
+    let (pid, started) = process::current();
+    store.claim_driver(row, pid, started, process::is_alive).await?;
+    let outcome = driver::drive(store, row.id, study).await;
+    let final_state = match &outcome {
+        Ok(summary) => match summary.ending {
+            Ending::Finished => StudyState::Finished,
+            Ending::Interrupted => StudyState::Interrupted,
+            Ending::Cancelled => StudyState::Cancelled,
+        },
+        Err(_) => StudyState::Interrupted,
+    };
+    store.release_driver(row.id, final_state).await?;
+    let summary = outcome?;
+    eprintln!(
+        "orch: study `{}` {}: {} succeeded, {} failed, {} cancelled, {} unfinished; details: orch status {}",
+        study.name,
+        match summary.ending {
+            Ending::Finished => "finished",
+            Ending::Interrupted => "interrupted",
+            Ending::Cancelled => "cancelled",
+        },
+        summary.succeeded,
+        summary.failed,
+        summary.cancelled,
+        summary.unfinished,
+        study.name
+    );
+    Ok(match summary.ending {
+        Ending::Interrupted => exit_codes::INTERRUPTED,
+        Ending::Finished if summary.failed == 0 => exit_codes::SUCCESS,
+        _ => exit_codes::JOBS_FAILED,
+    })
+}
+
+async fn find(project_dir: Option<&Path>, name: &str) -> anyhow::Result<(Store, StudyRow)> {
+    let dirs = project::discover(project_dir);
+    match project::find_study(&dirs, name).await? {
+        Some(found) => Ok(found),
+        None => Err(input_error(format!(
+            "no study named `{name}` in {}; `orch status` lists the studies, --project-dir points elsewhere",
+            if dirs.is_empty() { "./.orch or ./*/.orch".to_string() } else { dirs.iter().map(|d| d.display().to_string()).collect::<Vec<_>>().join(", ") }
+        ))),
+    }
+}
+
+async fn show_status(project_dir: Option<&Path>, study: Option<&str>, as_json: bool) -> anyhow::Result<i32> {
+    match study {
+        None => {
+            let stores = project::open_all(&project::discover(project_dir)).await?;
+            print!("{}", status::overview(&stores, as_json).await?);
+        }
+        Some(name) => {
+            let (store, row) = find(project_dir, name).await?;
+            let project = store.path().parent().unwrap_or(Path::new(".")).to_path_buf();
+            let responses = Study::from_text(Path::new(&row.file_path), &row.file_text, Some(stored_template(&row)))
+                .map(|s| s.responses)
+                .unwrap_or_default();
+            let detail = StudyDetail::load(&store, row).await?;
+            if as_json {
+                println!("{}", serde_json::to_string_pretty(&detail.json(&project))?);
+            } else {
+                print!("{}", detail.table(&responses));
+            }
+        }
+    }
+    Ok(exit_codes::SUCCESS)
+}
+
+fn stored_template(row: &StudyRow) -> Template {
+    Template { name: row.template_name.clone(), text: row.template_text.clone() }
+}
+
+async fn logs(project_dir: Option<&Path>, reference: &str, tail: usize) -> anyhow::Result<i32> {
+    let dirs = project::discover(project_dir);
+    let (study_name, job_name) = match reference.split_once('/') {
+        Some((s, j)) => (Some(s), j),
+        None => (None, reference),
+    };
+    let mut matches = Vec::new();
+    for (_, store) in project::open_all(&dirs).await? {
+        for study in store.studies().await? {
+            if study_name.is_some_and(|s| s != study.name) {
+                continue;
+            }
+            for job in store.jobs(study.id).await? {
+                if job.name == job_name {
+                    matches.push((study.clone(), job));
+                }
+            }
+        }
+    }
+    let (study, job) = match matches.len() {
+        1 => matches.remove(0),
+        0 => return Err(input_error(format!("no job `{reference}`; `orch status STUDY` lists a study's jobs"))),
+        _ => return Err(input_error(format!("`{job_name}` is in several studies; name it as STUDY/{job_name}"))),
+    };
+    let adapter = orch_adapters::adapter_for(&study.solver).context("the study's solver is unknown to this orch")?;
+    let log_file = adapter.command(&orch_adapters::Case { parameters: Default::default(), seed: 0 }).log_file;
+    println!("job {}/{}: {} after {} attempt(s){}", study.name, job.name, job.state, job.attempts, job.error.as_ref().map(|e| format!("; {e}")).unwrap_or_default());
+    let run_dir = PathBuf::from(&job.run_dir);
+    for file in [crate::executor::STDOUT_FILE, crate::executor::STDERR_FILE, log_file.as_str()] {
+        let path = run_dir.join(file);
+        println!("==> {} <==", path.display());
+        match std::fs::read_to_string(&path) {
+            Ok(text) => {
+                let lines: Vec<&str> = text.lines().collect();
+                let from = if tail == 0 { 0 } else { lines.len().saturating_sub(tail) };
+                for line in &lines[from..] {
+                    println!("{line}");
+                }
+            }
+            Err(e) => println!("(cannot read: {e})"),
+        }
+    }
+    Ok(exit_codes::SUCCESS)
+}
+
+async fn cancel(project_dir: Option<&Path>, name: &str) -> anyhow::Result<i32> {
+    let (store, row) = find(project_dir, name).await?;
+    store.set_study_state(row.id, StudyState::Cancelled).await?;
+    let mut killed = 0;
+    let mut cancelled = 0;
+    for job in store.jobs(row.id).await? {
+        if job.state().is_final() {
+            continue;
+        }
+        if let Some(handle) = job.executor_handle.as_deref().and_then(ProcessHandle::parse) {
+            if handle.is_alive() {
+                process::signal_group(handle.pid, nix::sys::signal::Signal::SIGKILL);
+                killed += 1;
+            }
+        }
+        // The driver, if one runs, may get there first; that is fine.
+        if store.mark_cancelled(job.id, "cancelled by orch cancel").await.is_ok() {
+            cancelled += 1;
+        }
+    }
+    eprintln!("orch: study `{name}` cancelled: {cancelled} jobs cancelled, {killed} running solvers killed; `orch resume {name}` runs them again");
+    Ok(exit_codes::SUCCESS)
+}
+
+/// Puts cancelled (and with `retry_failed`, failed) jobs back in the queue.
+async fn reopen(store: &Store, row: &StudyRow, retry_failed: bool) -> anyhow::Result<()> {
+    for job in store.jobs(row.id).await? {
+        let state = job.state();
+        if state == JobState::Cancelled || (retry_failed && state == JobState::Failed) {
+            store.reopen(job.id, retry_failed).await?;
+        }
+    }
+    Ok(())
+}
+
+async fn resume(project_dir: Option<&Path>, name: &str, retry_failed: bool) -> anyhow::Result<i32> {
+    let (store, row) = find(project_dir, name).await?;
+    let study = Study::from_text(Path::new(&row.file_path), &row.file_text, Some(stored_template(&row)))
+        .map_err(|e| input_error(format!("the stored study file no longer validates: {e}")))?;
+    reopen(&store, &row, retry_failed).await?;
+    if store.jobs(row.id).await?.iter().all(|j| j.state().is_final()) {
+        eprintln!("orch: every job of `{name}` is final; nothing to resume (use --retry-failed to run failed jobs again)");
+    }
+    drive(&store, &row, &study).await
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::CommandFactory;
+
+    #[test]
+    fn arguments_are_consistent() {
+        Args::command().debug_assert();
+    }
+}

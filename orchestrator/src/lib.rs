@@ -1,0 +1,15 @@
+//! `orch`: runs simulation-driven shape optimisation studies for granular-flow equipment.
+//!
+//! The binary's pieces, from the outside in: [`cli`] parses arguments and dispatches;
+//! [`study`] turns a study file into a validated [`study::Study`]; [`store`] is the
+//! SQLite store that holds every state; [`driver`] runs a study's jobs through an
+//! [`executor`]; [`status`] reads the store for people and scripts.
+
+pub mod cli;
+pub mod driver;
+pub mod executor;
+pub mod exit_codes;
+pub mod project;
+pub mod status;
+pub mod store;
+pub mod study;

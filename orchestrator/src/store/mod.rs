@@ -1,0 +1,628 @@
+//! The SQLite store: the single source of truth for studies, points and jobs.
+//!
+//! All SQL of `orch` lives in this module. Every change of state is one transaction;
+//! a job transition is guarded by the state the caller expects (`UPDATE … WHERE state
+//! IN (…)`), so two processes can never both move the same job, and every transition
+//! is recorded in `job_events`. The database is `<project>/orch.db` in WAL mode.
+
+mod rows;
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::str::FromStr;
+use std::time::{Duration, SystemTime, UNIX_EPOCH};
+
+use sqlx::sqlite::{SqliteConnectOptions, SqliteJournalMode, SqlitePoolOptions, SqliteSynchronous};
+use sqlx::{Row, SqlitePool};
+
+pub use rows::{FactorRow, JobRow, JobState, PointRow, StudyRow, StudyState};
+
+use crate::study::Study;
+
+/// Name of the database file inside a project directory.
+pub const DATABASE_FILE: &str = "orch.db";
+
+/// Why the store could not do what was asked.
+#[derive(Debug, thiserror::Error)]
+pub enum StoreError {
+    /// The database could not be opened or created.
+    #[error("cannot open the orch database {}: {source}", path.display())]
+    Open {
+        /// The database file.
+        path: PathBuf,
+        /// The cause.
+        #[source]
+        source: sqlx::Error,
+    },
+    /// The schema could not be brought up to date.
+    #[error("cannot update the schema of {}: {source}", path.display())]
+    Migrate {
+        /// The database file.
+        path: PathBuf,
+        /// The cause.
+        #[source]
+        source: sqlx::migrate::MigrateError,
+    },
+    /// A query failed.
+    #[error("database error while trying to {what}: {source}")]
+    Query {
+        /// What was being done.
+        what: &'static str,
+        /// The cause.
+        #[source]
+        source: sqlx::Error,
+    },
+    /// A job was not in a state the transition starts from (someone else moved it).
+    #[error("job {job} is no longer {expected}; it was changed by another orch command")]
+    Stale {
+        /// The job id.
+        job: i64,
+        /// The states the transition expected.
+        expected: String,
+    },
+    /// Another live orch process drives this study.
+    #[error("study `{study}` is being run by another orch process (pid {pid}); wait for it, or stop it with `orch cancel {study}`")]
+    Busy {
+        /// The study name.
+        study: String,
+        /// The other process.
+        pid: i64,
+    },
+}
+
+fn query_error(what: &'static str) -> impl FnOnce(sqlx::Error) -> StoreError {
+    move |source| StoreError::Query { what, source }
+}
+
+/// Seconds since the Unix epoch, now.
+pub fn now_s() -> f64 {
+    SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .unwrap_or_default()
+        .as_secs_f64()
+}
+
+/// What a finished job produced.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct JobResults {
+    /// Named scalar responses.
+    pub responses: Vec<(String, f64)>,
+    /// Named time series of `(t s, value)`.
+    pub series: Vec<(String, Vec<(f64, f64)>)>,
+}
+
+/// The open store of one project directory.
+#[derive(Debug, Clone)]
+pub struct Store {
+    pool: SqlitePool,
+    path: PathBuf,
+}
+
+impl Store {
+    /// Opens (creating if needed) the store in `project_dir` and migrates its schema.
+    pub async fn open(project_dir: &Path) -> Result<Store, StoreError> {
+        let path = project_dir.join(DATABASE_FILE);
+        if let Err(e) = std::fs::create_dir_all(project_dir) {
+            return Err(StoreError::Open {
+                path,
+                source: sqlx::Error::Io(e),
+            });
+        }
+        let options = SqliteConnectOptions::new()
+            .filename(&path)
+            .create_if_missing(true)
+            .journal_mode(SqliteJournalMode::Wal)
+            .synchronous(SqliteSynchronous::Normal)
+            .foreign_keys(true)
+            .busy_timeout(Duration::from_secs(30));
+        let pool = SqlitePoolOptions::new()
+            .max_connections(4)
+            .connect_with(options)
+            .await
+            .map_err(|source| StoreError::Open {
+                path: path.clone(),
+                source,
+            })?;
+        sqlx::migrate!("./migrations")
+            .run(&pool)
+            .await
+            .map_err(|source| StoreError::Migrate {
+                path: path.clone(),
+                source,
+            })?;
+        Ok(Store { pool, path })
+    }
+
+    /// Opens an existing store; `None` when `project_dir` holds no database.
+    pub async fn open_existing(project_dir: &Path) -> Result<Option<Store>, StoreError> {
+        if !project_dir.join(DATABASE_FILE).exists() {
+            return Ok(None);
+        }
+        Store::open(project_dir).await.map(Some)
+    }
+
+    /// The database file.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// Closes the pool, checkpointing the WAL.
+    pub async fn close(self) {
+        self.pool.close().await;
+    }
+
+    /// Records a validated study with its factors, points and jobs, all at once.
+    /// Jobs are named `p<point>r<replicate>` and run in `<runs_root>/<study>/<job>`.
+    pub async fn insert_study(
+        &self,
+        study: &Study,
+        file_path: &Path,
+        runs_root: &Path,
+    ) -> Result<i64, StoreError> {
+        let now = now_s();
+        let mut tx = self.pool.begin().await.map_err(query_error("start a transaction"))?;
+        let study_id: i64 = sqlx::query(
+            "INSERT INTO studies (name, solver, file_path, file_text, file_sha256, template_name,
+                                  template_text, state, created_at, updated_at)
+             VALUES (?, ?, ?, ?, ?, ?, ?, 'active', ?, ?) RETURNING id",
+        )
+        .bind(&study.name)
+        .bind(study.adapter.name())
+        .bind(file_path.display().to_string())
+        .bind(&study.file_text)
+        .bind(&study.file_sha256)
+        .bind(&study.template.name)
+        .bind(&study.template.text)
+        .bind(now)
+        .bind(now)
+        .fetch_one(&mut *tx)
+        .await
+        .map_err(query_error("record the study"))?
+        .get(0);
+        for (idx, factor) in study.factors.iter().enumerate() {
+            sqlx::query("INSERT INTO factors (study_id, idx, name, min, max, unit) VALUES (?, ?, ?, ?, ?, ?)")
+                .bind(study_id)
+                .bind(idx as i64)
+                .bind(&factor.name)
+                .bind(factor.range.min)
+                .bind(factor.range.max)
+                .bind(&factor.unit)
+                .execute(&mut *tx)
+                .await
+                .map_err(query_error("record a factor"))?;
+        }
+        for (idx, point) in study.points.iter().enumerate() {
+            let point_id: i64 = sqlx::query("INSERT INTO points (study_id, round, idx) VALUES (?, 0, ?) RETURNING id")
+                .bind(study_id)
+                .bind(idx as i64)
+                .fetch_one(&mut *tx)
+                .await
+                .map_err(query_error("record a design point"))?
+                .get(0);
+            for (factor_idx, (coded, natural)) in point.coded.iter().zip(&point.natural).enumerate() {
+                sqlx::query("INSERT INTO point_values (point_id, factor_idx, coded, natural) VALUES (?, ?, ?, ?)")
+                    .bind(point_id)
+                    .bind(factor_idx as i64)
+                    .bind(coded)
+                    .bind(natural)
+                    .execute(&mut *tx)
+                    .await
+                    .map_err(query_error("record a design point"))?;
+            }
+            for replicate in 0..study.replicates {
+                let name = format!("p{idx:03}r{replicate}");
+                let run_dir = runs_root.join(&study.name).join(&name);
+                sqlx::query(
+                    "INSERT INTO jobs (study_id, point_id, replicate, name, seed, state, run_dir)
+                     VALUES (?, ?, ?, ?, ?, 'pending', ?)",
+                )
+                .bind(study_id)
+                .bind(point_id)
+                .bind(replicate as i64)
+                .bind(&name)
+                .bind(study.job_seed(idx, replicate) as i64)
+                .bind(run_dir.display().to_string())
+                .execute(&mut *tx)
+                .await
+                .map_err(query_error("record a job"))?;
+            }
+        }
+        tx.commit().await.map_err(query_error("commit the new study"))?;
+        Ok(study_id)
+    }
+
+    /// The study called `name`.
+    pub async fn study_by_name(&self, name: &str) -> Result<Option<StudyRow>, StoreError> {
+        sqlx::query_as("SELECT * FROM studies WHERE name = ?")
+            .bind(name)
+            .fetch_optional(&self.pool)
+            .await
+            .map_err(query_error("look up a study"))
+    }
+
+    /// Every study, oldest first.
+    pub async fn studies(&self) -> Result<Vec<StudyRow>, StoreError> {
+        sqlx::query_as("SELECT * FROM studies ORDER BY id")
+            .fetch_all(&self.pool)
+            .await
+            .map_err(query_error("list studies"))
+    }
+
+    /// Sets a study's state.
+    pub async fn set_study_state(&self, study_id: i64, state: StudyState) -> Result<(), StoreError> {
+        sqlx::query("UPDATE studies SET state = ?, updated_at = ? WHERE id = ?")
+            .bind(state.as_str())
+            .bind(now_s())
+            .bind(study_id)
+            .execute(&self.pool)
+            .await
+            .map_err(query_error("change a study's state"))?;
+        Ok(())
+    }
+
+    /// Claims the study for this process, unless another live driver holds it.
+    /// `is_alive(pid, started)` tells whether a recorded driver still runs.
+    pub async fn claim_driver(
+        &self,
+        study: &StudyRow,
+        pid: i64,
+        started: i64,
+        is_alive: impl Fn(i64, i64) -> bool,
+    ) -> Result<(), StoreError> {
+        let mut tx = self.pool.begin().await.map_err(query_error("start a transaction"))?;
+        let holder: (Option<i64>, Option<i64>) =
+            sqlx::query_as("SELECT driver_pid, driver_started FROM studies WHERE id = ?")
+                .bind(study.id)
+                .fetch_one(&mut *tx)
+                .await
+                .map_err(query_error("read the study's driver"))?;
+        if let (Some(other), Some(other_started)) = holder {
+            if other != pid && is_alive(other, other_started) {
+                return Err(StoreError::Busy {
+                    study: study.name.clone(),
+                    pid: other,
+                });
+            }
+        }
+        sqlx::query("UPDATE studies SET driver_pid = ?, driver_started = ?, state = 'active', updated_at = ? WHERE id = ?")
+            .bind(pid)
+            .bind(started)
+            .bind(now_s())
+            .bind(study.id)
+            .execute(&mut *tx)
+            .await
+            .map_err(query_error("claim the study"))?;
+        tx.commit().await.map_err(query_error("claim the study"))
+    }
+
+    /// Releases the study's driver claim and sets its final state.
+    pub async fn release_driver(&self, study_id: i64, state: StudyState) -> Result<(), StoreError> {
+        sqlx::query("UPDATE studies SET driver_pid = NULL, driver_started = NULL, state = ?, updated_at = ? WHERE id = ?")
+            .bind(state.as_str())
+            .bind(now_s())
+            .bind(study_id)
+            .execute(&self.pool)
+            .await
+            .map_err(query_error("release the study"))?;
+        Ok(())
+    }
+
+    /// The study's current state as stored (another process may have cancelled it).
+    pub async fn study_state(&self, study_id: i64) -> Result<StudyState, StoreError> {
+        let state: String = sqlx::query_scalar("SELECT state FROM studies WHERE id = ?")
+            .bind(study_id)
+            .fetch_one(&self.pool)
+            .await
+            .map_err(query_error("read a study's state"))?;
+        Ok(StudyState::from_str(&state).unwrap_or(StudyState::Active))
+    }
+
+    /// Every job of a study, in point and replicate order.
+    pub async fn jobs(&self, study_id: i64) -> Result<Vec<JobRow>, StoreError> {
+        sqlx::query_as("SELECT * FROM jobs WHERE study_id = ? ORDER BY id")
+            .bind(study_id)
+            .fetch_all(&self.pool)
+            .await
+            .map_err(query_error("list jobs"))
+    }
+
+    /// One job by id.
+    pub async fn job(&self, job_id: i64) -> Result<JobRow, StoreError> {
+        sqlx::query_as("SELECT * FROM jobs WHERE id = ?")
+            .bind(job_id)
+            .fetch_one(&self.pool)
+            .await
+            .map_err(query_error("read a job"))
+    }
+
+    /// The factors of a study in order.
+    pub async fn factors(&self, study_id: i64) -> Result<Vec<FactorRow>, StoreError> {
+        sqlx::query_as("SELECT name, min, max, unit FROM factors WHERE study_id = ? ORDER BY idx")
+            .bind(study_id)
+            .fetch_all(&self.pool)
+            .await
+            .map_err(query_error("list factors"))
+    }
+
+    /// The design points of a study with their coded and natural values.
+    pub async fn points(&self, study_id: i64) -> Result<Vec<PointRow>, StoreError> {
+        let rows = sqlx::query(
+            "SELECT p.id, p.round, p.idx, v.coded, v.natural FROM points p
+             JOIN point_values v ON v.point_id = p.id
+             WHERE p.study_id = ? ORDER BY p.round, p.idx, v.factor_idx",
+        )
+        .bind(study_id)
+        .fetch_all(&self.pool)
+        .await
+        .map_err(query_error("list design points"))?;
+        let mut points: Vec<PointRow> = Vec::new();
+        for row in rows {
+            let id: i64 = row.get(0);
+            if points.last().is_none_or(|p| p.id != id) {
+                points.push(PointRow {
+                    id,
+                    round: row.get(1),
+                    idx: row.get(2),
+                    coded: Vec::new(),
+                    natural: Vec::new(),
+                });
+            }
+            let point = points.last_mut().expect("pushed above");
+            point.coded.push(row.get(3));
+            point.natural.push(row.get(4));
+        }
+        Ok(points)
+    }
+
+    /// Responses of every job of a study, by job id then name.
+    pub async fn responses(&self, study_id: i64) -> Result<BTreeMap<i64, BTreeMap<String, f64>>, StoreError> {
+        let rows: Vec<(i64, String, f64)> = sqlx::query_as(
+            "SELECT r.job_id, r.name, r.value FROM responses r JOIN jobs j ON j.id = r.job_id
+             WHERE j.study_id = ? ORDER BY r.job_id, r.name",
+        )
+        .bind(study_id)
+        .fetch_all(&self.pool)
+        .await
+        .map_err(query_error("read responses"))?;
+        let mut out: BTreeMap<i64, BTreeMap<String, f64>> = BTreeMap::new();
+        for (job, name, value) in rows {
+            out.entry(job).or_default().insert(name, value);
+        }
+        Ok(out)
+    }
+
+    /// One time series of a job, in time order.
+    pub async fn series(&self, job_id: i64, name: &str) -> Result<Vec<(f64, f64)>, StoreError> {
+        sqlx::query_as("SELECT t, value FROM series WHERE job_id = ? AND name = ? ORDER BY t")
+            .bind(job_id)
+            .bind(name)
+            .fetch_all(&self.pool)
+            .await
+            .map_err(query_error("read a time series"))
+    }
+
+    /// Number of times a job reached `to_state`, from the event log.
+    pub async fn transitions_to(&self, job_id: i64, to_state: JobState) -> Result<i64, StoreError> {
+        sqlx::query_scalar("SELECT COUNT(*) FROM job_events WHERE job_id = ? AND to_state = ?")
+            .bind(job_id)
+            .bind(to_state.as_str())
+            .fetch_one(&self.pool)
+            .await
+            .map_err(query_error("count job events"))
+    }
+
+    /// Moves a job from one of `from` to `to`, applying `set` (SQL assignments with
+    /// their bound values appended after `state`), and logs the event, in one
+    /// transaction. Fails with [`StoreError::Stale`] when the job was not in `from`.
+    #[allow(clippy::too_many_arguments)]
+    async fn transition(
+        &self,
+        tx: &mut sqlx::SqliteConnection,
+        job_id: i64,
+        from: &[JobState],
+        to: JobState,
+        set: &str,
+        binds: Vec<Bind>,
+        note: Option<&str>,
+    ) -> Result<(), StoreError> {
+        let current: Option<String> = sqlx::query_scalar("SELECT state FROM jobs WHERE id = ?")
+            .bind(job_id)
+            .fetch_optional(&mut *tx)
+            .await
+            .map_err(query_error("read a job's state"))?;
+        let stale = || StoreError::Stale {
+            job: job_id,
+            expected: from.iter().map(|s| s.as_str()).collect::<Vec<_>>().join(" or "),
+        };
+        let current = current.ok_or_else(stale)?;
+        if !from.iter().any(|s| s.as_str() == current) {
+            return Err(stale());
+        }
+        let assignments = if set.is_empty() {
+            "state = ?".to_string()
+        } else {
+            format!("state = ?, {set}")
+        };
+        let sql = format!("UPDATE jobs SET {assignments} WHERE id = ?");
+        let mut query = sqlx::query(&sql).bind(to.as_str());
+        for bind in binds {
+            query = match bind {
+                Bind::Int(v) => query.bind(v),
+                Bind::Real(v) => query.bind(v),
+                Bind::Text(v) => query.bind(v),
+                Bind::Null => query.bind(None::<i64>),
+            };
+        }
+        query
+            .bind(job_id)
+            .execute(&mut *tx)
+            .await
+            .map_err(query_error("change a job's state"))?;
+        sqlx::query("INSERT INTO job_events (job_id, at, from_state, to_state, note) VALUES (?, ?, ?, ?, ?)")
+            .bind(job_id)
+            .bind(now_s())
+            .bind(&current)
+            .bind(to.as_str())
+            .bind(note)
+            .execute(&mut *tx)
+            .await
+            .map_err(query_error("log a job event"))?;
+        Ok(())
+    }
+
+    /// Runs one guarded transition in its own transaction.
+    async fn transition_alone(
+        &self,
+        job_id: i64,
+        from: &[JobState],
+        to: JobState,
+        set: &str,
+        binds: Vec<Bind>,
+        note: Option<&str>,
+    ) -> Result<(), StoreError> {
+        let mut tx = self.pool.begin().await.map_err(query_error("start a transaction"))?;
+        self.transition(&mut tx, job_id, from, to, set, binds, note).await?;
+        tx.commit().await.map_err(query_error("commit a job transition"))
+    }
+
+    /// pending → rendered.
+    pub async fn mark_rendered(&self, job_id: i64) -> Result<(), StoreError> {
+        self.transition_alone(job_id, &[JobState::Pending], JobState::Rendered, "", vec![], None)
+            .await
+    }
+
+    /// rendered → running with the executor's handle; counts an attempt.
+    pub async fn mark_running(&self, job_id: i64, handle: &str, started_at: f64) -> Result<(), StoreError> {
+        self.transition_alone(
+            job_id,
+            &[JobState::Rendered],
+            JobState::Running,
+            "attempts = attempts + 1, executor_handle = ?, started_at = ?, finished_at = NULL, exit_code = NULL, error = NULL",
+            vec![Bind::Text(handle.to_string()), Bind::Real(started_at)],
+            None,
+        )
+        .await
+    }
+
+    /// running → succeeded, replacing the job's responses and series.
+    pub async fn mark_succeeded(&self, job_id: i64, exit_code: i32, results: &JobResults) -> Result<(), StoreError> {
+        let mut tx = self.pool.begin().await.map_err(query_error("start a transaction"))?;
+        self.transition(
+            &mut tx,
+            job_id,
+            &[JobState::Running],
+            JobState::Succeeded,
+            "exit_code = ?, finished_at = ?, error = NULL",
+            vec![Bind::Int(exit_code as i64), Bind::Real(now_s())],
+            None,
+        )
+        .await?;
+        for table in ["responses", "series"] {
+            sqlx::query(&format!("DELETE FROM {table} WHERE job_id = ?"))
+                .bind(job_id)
+                .execute(&mut *tx)
+                .await
+                .map_err(query_error("clear old results"))?;
+        }
+        for (name, value) in &results.responses {
+            sqlx::query("INSERT INTO responses (job_id, name, value) VALUES (?, ?, ?)")
+                .bind(job_id)
+                .bind(name)
+                .bind(value)
+                .execute(&mut *tx)
+                .await
+                .map_err(query_error("record a response"))?;
+        }
+        for (name, points) in &results.series {
+            for (t, value) in points {
+                sqlx::query("INSERT INTO series (job_id, name, t, value) VALUES (?, ?, ?, ?)")
+                    .bind(job_id)
+                    .bind(name)
+                    .bind(t)
+                    .bind(value)
+                    .execute(&mut *tx)
+                    .await
+                    .map_err(query_error("record a time series"))?;
+            }
+        }
+        tx.commit().await.map_err(query_error("commit a job's results"))
+    }
+
+    /// pending, rendered or running → failed with the reason a user needs.
+    pub async fn mark_failed(&self, job_id: i64, exit_code: Option<i32>, error: &str) -> Result<(), StoreError> {
+        self.transition_alone(
+            job_id,
+            &[JobState::Pending, JobState::Rendered, JobState::Running],
+            JobState::Failed,
+            "exit_code = ?, finished_at = ?, error = ?",
+            vec![
+                exit_code.map(|c| Bind::Int(c as i64)).unwrap_or(Bind::Null),
+                Bind::Real(now_s()),
+                Bind::Text(error.to_string()),
+            ],
+            Some(error),
+        )
+        .await
+    }
+
+    /// rendered, submitted or running → pending, to run again. `refund_attempt` gives
+    /// back the attempt (an interruption by the user is not the job's failure).
+    pub async fn requeue(&self, job_id: i64, note: &str, refund_attempt: bool) -> Result<(), StoreError> {
+        let set = if refund_attempt {
+            "executor_handle = NULL, attempts = MAX(attempts - 1, 0), error = ?"
+        } else {
+            "executor_handle = NULL, error = ?"
+        };
+        self.transition_alone(
+            job_id,
+            &[JobState::Rendered, JobState::Submitted, JobState::Running],
+            JobState::Pending,
+            set,
+            vec![Bind::Text(note.to_string())],
+            Some(note),
+        )
+        .await
+    }
+
+    /// Any unfinished state → cancelled.
+    pub async fn mark_cancelled(&self, job_id: i64, note: &str) -> Result<(), StoreError> {
+        self.transition_alone(
+            job_id,
+            &[JobState::Pending, JobState::Rendered, JobState::Submitted, JobState::Running],
+            JobState::Cancelled,
+            "finished_at = ?, error = ?",
+            vec![Bind::Real(now_s()), Bind::Text(note.to_string())],
+            Some(note),
+        )
+        .await
+    }
+
+    /// cancelled (and, with `retry_failed`, failed) → pending with fresh attempts.
+    pub async fn reopen(&self, job_id: i64, retry_failed: bool) -> Result<(), StoreError> {
+        let from: &[JobState] = if retry_failed {
+            &[JobState::Cancelled, JobState::Failed]
+        } else {
+            &[JobState::Cancelled]
+        };
+        self.transition_alone(
+            job_id,
+            from,
+            JobState::Pending,
+            "attempts = 0, executor_handle = NULL, error = NULL, exit_code = NULL",
+            vec![],
+            Some("reopened by orch resume"),
+        )
+        .await
+    }
+}
+
+/// A value bound into a transition's assignments.
+enum Bind {
+    Int(i64),
+    Real(f64),
+    Text(String),
+    Null,
+}
+
+#[cfg(test)]
+mod tests;

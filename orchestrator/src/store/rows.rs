@@ -1,0 +1,212 @@
+//! Rows read from the store, and the state enums stored as text.
+
+use std::fmt;
+use std::str::FromStr;
+
+/// The life of a job: pending → rendered → (submitted →) running → succeeded | failed |
+/// cancelled. A job that must run again goes back to pending.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum JobState {
+    /// Waiting to be rendered and launched.
+    Pending,
+    /// Its run directory holds the rendered input.
+    Rendered,
+    /// Handed to a batch scheduler, not yet running.
+    Submitted,
+    /// The solver is running.
+    Running,
+    /// Finished and its results are stored.
+    Succeeded,
+    /// Finished without results; `error` says why.
+    Failed,
+    /// Stopped by the user.
+    Cancelled,
+}
+
+impl JobState {
+    /// Every state, in life order.
+    pub const ALL: [JobState; 7] = [
+        JobState::Pending,
+        JobState::Rendered,
+        JobState::Submitted,
+        JobState::Running,
+        JobState::Succeeded,
+        JobState::Failed,
+        JobState::Cancelled,
+    ];
+
+    /// The text stored in the database.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            JobState::Pending => "pending",
+            JobState::Rendered => "rendered",
+            JobState::Submitted => "submitted",
+            JobState::Running => "running",
+            JobState::Succeeded => "succeeded",
+            JobState::Failed => "failed",
+            JobState::Cancelled => "cancelled",
+        }
+    }
+
+    /// True for succeeded, failed and cancelled.
+    pub fn is_final(self) -> bool {
+        matches!(self, JobState::Succeeded | JobState::Failed | JobState::Cancelled)
+    }
+}
+
+impl FromStr for JobState {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        JobState::ALL
+            .into_iter()
+            .find(|state| state.as_str() == s)
+            .ok_or_else(|| format!("unknown job state `{s}`"))
+    }
+}
+
+impl fmt::Display for JobState {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+/// The state of a study as a whole.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StudyState {
+    /// Submitted; jobs run or wait to run.
+    Active,
+    /// Stopped by Ctrl-C; `orch resume` continues it.
+    Interrupted,
+    /// Stopped by `orch cancel`.
+    Cancelled,
+    /// Every job reached a final state.
+    Finished,
+}
+
+impl StudyState {
+    /// The text stored in the database.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            StudyState::Active => "active",
+            StudyState::Interrupted => "interrupted",
+            StudyState::Cancelled => "cancelled",
+            StudyState::Finished => "finished",
+        }
+    }
+}
+
+impl FromStr for StudyState {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        [StudyState::Active, StudyState::Interrupted, StudyState::Cancelled, StudyState::Finished]
+            .into_iter()
+            .find(|state| state.as_str() == s)
+            .ok_or_else(|| format!("unknown study state `{s}`"))
+    }
+}
+
+/// A row of `studies`.
+#[derive(Debug, Clone, PartialEq, sqlx::FromRow)]
+pub struct StudyRow {
+    /// Id.
+    pub id: i64,
+    /// Name.
+    pub name: String,
+    /// Solver name.
+    pub solver: String,
+    /// Study file as given at submission.
+    pub file_path: String,
+    /// Study file text.
+    pub file_text: String,
+    /// SHA-256 of the text, hex.
+    pub file_sha256: String,
+    /// Template name.
+    pub template_name: String,
+    /// Template text.
+    pub template_text: String,
+    /// State as text; see [`StudyRow::state`].
+    pub state: String,
+    /// pid of the orch process driving it, if any.
+    pub driver_pid: Option<i64>,
+    /// Start time of that process (clock ticks since boot), to tell pid reuse apart.
+    pub driver_started: Option<i64>,
+    /// Creation time, Unix seconds.
+    pub created_at: f64,
+    /// Last change, Unix seconds.
+    pub updated_at: f64,
+}
+
+impl StudyRow {
+    /// The state.
+    pub fn state(&self) -> StudyState {
+        self.state.parse().unwrap_or(StudyState::Active)
+    }
+}
+
+/// A row of `jobs`.
+#[derive(Debug, Clone, PartialEq, sqlx::FromRow)]
+pub struct JobRow {
+    /// Id.
+    pub id: i64,
+    /// Study id.
+    pub study_id: i64,
+    /// Design point id.
+    pub point_id: i64,
+    /// Replicate number from 0.
+    pub replicate: i64,
+    /// Name within the study, `p<point>r<replicate>`.
+    pub name: String,
+    /// Solver seed.
+    pub seed: i64,
+    /// State as text; see [`JobRow::state`].
+    pub state: String,
+    /// Attempts started.
+    pub attempts: i64,
+    /// The executor's handle of the current attempt (local: `pid:start-ticks`).
+    pub executor_handle: Option<String>,
+    /// Run directory.
+    pub run_dir: String,
+    /// Start of the current attempt, Unix seconds.
+    pub started_at: Option<f64>,
+    /// End of the last attempt, Unix seconds.
+    pub finished_at: Option<f64>,
+    /// Exit code of the last attempt.
+    pub exit_code: Option<i64>,
+    /// Why the job failed or was put back.
+    pub error: Option<String>,
+}
+
+impl JobRow {
+    /// The state.
+    pub fn state(&self) -> JobState {
+        self.state.parse().unwrap_or(JobState::Pending)
+    }
+}
+
+/// A factor of a study.
+#[derive(Debug, Clone, PartialEq, sqlx::FromRow)]
+pub struct FactorRow {
+    /// Parameter name.
+    pub name: String,
+    /// Lower bound.
+    pub min: f64,
+    /// Upper bound.
+    pub max: f64,
+    /// Unit.
+    pub unit: String,
+}
+
+/// A design point with its values in factor order.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PointRow {
+    /// Id.
+    pub id: i64,
+    /// Round of the study (0 for the initial design).
+    pub round: i64,
+    /// Index within the round.
+    pub idx: i64,
+    /// Coded values.
+    pub coded: Vec<f64>,
+    /// Natural values.
+    pub natural: Vec<f64>,
+}

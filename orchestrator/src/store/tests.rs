@@ -1,0 +1,99 @@
+use std::path::Path;
+
+use super::*;
+use crate::study::Study;
+
+const STUDY: &str = "\
+name: small
+solver: liggghts
+factors:
+  - {name: outlet_diameter, min: 0.020, max: 0.028}
+  - {name: amplitude, min: 0.0, max: 0.0008}
+design: {type: central_composite, alpha: face_centred}
+replicates: 2
+";
+
+async fn store_with_study() -> (tempfile::TempDir, Store, i64) {
+    let dir = tempfile::tempdir().unwrap();
+    let store = Store::open(dir.path()).await.unwrap();
+    let study = Study::from_text(Path::new("small.yaml"), STUDY, None).unwrap();
+    let id = store
+        .insert_study(&study, Path::new("small.yaml"), &dir.path().join("runs"))
+        .await
+        .unwrap();
+    (dir, store, id)
+}
+
+#[tokio::test]
+async fn a_study_is_recorded_with_points_and_jobs() {
+    let (dir, store, id) = store_with_study().await;
+    let jobs = store.jobs(id).await.unwrap();
+    assert_eq!(jobs.len(), 18);
+    assert!(jobs.iter().all(|j| j.state() == JobState::Pending));
+    assert_eq!(jobs[1].name, "p000r1");
+    assert_eq!(Path::new(&jobs[1].run_dir), dir.path().join("runs/small/p000r1"));
+    let points = store.points(id).await.unwrap();
+    assert_eq!(points.len(), 9);
+    assert_eq!(points[0].coded, vec![-1.0, -1.0]);
+    assert!((points[0].natural[0] - 0.020).abs() < 1e-15);
+    let row = store.study_by_name("small").await.unwrap().unwrap();
+    assert_eq!(row.file_text, STUDY);
+    assert_eq!(row.state(), StudyState::Active);
+    // The same name cannot be recorded twice.
+    let study = Study::from_text(Path::new("small.yaml"), STUDY, None).unwrap();
+    assert!(store.insert_study(&study, Path::new("small.yaml"), dir.path()).await.is_err());
+    assert_eq!(store.jobs(id).await.unwrap().len(), 18);
+}
+
+#[tokio::test]
+async fn a_job_moves_through_its_states_and_keeps_its_results() {
+    let (_dir, store, id) = store_with_study().await;
+    let job = store.jobs(id).await.unwrap()[0].id;
+    store.mark_rendered(job).await.unwrap();
+    store.mark_running(job, "123:456", 10.0).await.unwrap();
+    let results = JobResults {
+        responses: vec![("discharge_rate".into(), 0.15)],
+        series: vec![("mass_flow_rate".into(), vec![(0.1, 0.2), (0.2, 0.3)])],
+    };
+    store.mark_succeeded(job, 0, &results).await.unwrap();
+    let row = store.job(job).await.unwrap();
+    assert_eq!((row.state(), row.attempts, row.exit_code), (JobState::Succeeded, 1, Some(0)));
+    assert_eq!(store.responses(id).await.unwrap()[&job]["discharge_rate"], 0.15);
+    assert_eq!(store.series(job, "mass_flow_rate").await.unwrap(), vec![(0.1, 0.2), (0.2, 0.3)]);
+    assert_eq!(store.transitions_to(job, JobState::Succeeded).await.unwrap(), 1);
+}
+
+#[tokio::test]
+async fn a_transition_from_the_wrong_state_is_refused_and_changes_nothing() {
+    let (_dir, store, id) = store_with_study().await;
+    let job = store.jobs(id).await.unwrap()[0].id;
+    let error = store.mark_running(job, "1:1", 0.0).await.unwrap_err();
+    assert!(matches!(error, StoreError::Stale { .. }), "{error}");
+    let row = store.job(job).await.unwrap();
+    assert_eq!((row.state(), row.attempts), (JobState::Pending, 0));
+}
+
+#[tokio::test]
+async fn interruption_refunds_the_attempt_and_loss_does_not() {
+    let (_dir, store, id) = store_with_study().await;
+    let job = store.jobs(id).await.unwrap()[0].id;
+    for refund in [true, false] {
+        store.mark_rendered(job).await.unwrap();
+        store.mark_running(job, "1:1", 0.0).await.unwrap();
+        store.requeue(job, "put back", refund).await.unwrap();
+    }
+    let row = store.job(job).await.unwrap();
+    assert_eq!((row.state(), row.attempts), (JobState::Pending, 1));
+}
+
+#[tokio::test]
+async fn only_one_live_driver_may_claim_a_study() {
+    let (_dir, store, id) = store_with_study().await;
+    let study = store.study_by_name("small").await.unwrap().unwrap();
+    assert_eq!(study.id, id);
+    store.claim_driver(&study, 100, 1, |_, _| true).await.unwrap();
+    let busy = store.claim_driver(&study, 200, 1, |_, _| true).await.unwrap_err();
+    assert!(matches!(busy, StoreError::Busy { pid: 100, .. }));
+    // A dead holder is taken over.
+    store.claim_driver(&study, 200, 1, |_, _| false).await.unwrap();
+}

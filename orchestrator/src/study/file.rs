@@ -1,0 +1,178 @@
+//! The study file as written: serde types that mirror the YAML one to one.
+//!
+//! These types are only a parse target. [`super::Study`] is what the rest of `orch`
+//! uses, built by [`super::Study::from_text`] after every check has passed.
+
+use std::collections::BTreeMap;
+use std::fmt;
+use std::time::Duration;
+
+use serde::de::{self, Deserializer, Visitor};
+use serde::Deserialize;
+
+/// A study file. Unknown keys are refused.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StudyFile {
+    /// Study name, used in paths and commands: letters, digits, `-` and `_`.
+    pub name: String,
+    /// Free text.
+    #[serde(default)]
+    pub description: Option<String>,
+    /// Solver name (`liggghts`).
+    pub solver: String,
+    /// A Tera template of the user's, relative to the study file; default per solver.
+    #[serde(default)]
+    pub template: Option<String>,
+    /// Where and how jobs run.
+    #[serde(default)]
+    pub executor: ExecutorFile,
+    /// Design variables.
+    pub factors: Vec<FactorFile>,
+    /// Template parameters held constant, by name, SI units.
+    #[serde(default)]
+    pub fixed: BTreeMap<String, f64>,
+    /// The design of experiments.
+    pub design: DesignFile,
+    /// Runs per design point, each with its own seed.
+    #[serde(default = "one")]
+    pub replicates: u32,
+    /// Base seed; job seeds derive from it, the point and the replicate.
+    #[serde(default)]
+    pub seed: u64,
+    /// Responses the study is about; every response is stored, these are shown.
+    #[serde(default)]
+    pub responses: Vec<String>,
+}
+
+fn one() -> u32 {
+    1
+}
+
+/// Executor kinds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ExecutorKind {
+    /// Processes on this machine.
+    #[default]
+    Local,
+}
+
+/// The `executor:` section.
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ExecutorFile {
+    /// Which executor.
+    #[serde(default)]
+    pub kind: ExecutorKind,
+    /// Jobs running at once; default: cores divided by the cores a job uses.
+    #[serde(default)]
+    pub max_parallel: Option<usize>,
+    /// Wall-time limit per job attempt: seconds, or text such as `90s`, `10min`, `2h`.
+    #[serde(default)]
+    pub time_limit: Option<TimeLimit>,
+    /// Extra attempts for a job that failed.
+    #[serde(default)]
+    pub retries: u32,
+}
+
+/// A duration written as seconds or as humantime text.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct TimeLimit(pub Duration);
+
+impl<'de> Deserialize<'de> for TimeLimit {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        struct TimeLimitVisitor;
+        impl Visitor<'_> for TimeLimitVisitor {
+            type Value = TimeLimit;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a positive number of seconds or a duration such as `90s`, `10min`, `2h`")
+            }
+            fn visit_u64<E: de::Error>(self, v: u64) -> Result<TimeLimit, E> {
+                Ok(TimeLimit(Duration::from_secs(v)))
+            }
+            fn visit_i64<E: de::Error>(self, v: i64) -> Result<TimeLimit, E> {
+                u64::try_from(v)
+                    .map(|v| TimeLimit(Duration::from_secs(v)))
+                    .map_err(|_| E::invalid_value(de::Unexpected::Signed(v), &self))
+            }
+            fn visit_f64<E: de::Error>(self, v: f64) -> Result<TimeLimit, E> {
+                Duration::try_from_secs_f64(v)
+                    .map(TimeLimit)
+                    .map_err(|_| E::invalid_value(de::Unexpected::Float(v), &self))
+            }
+            fn visit_str<E: de::Error>(self, v: &str) -> Result<TimeLimit, E> {
+                humantime::parse_duration(v)
+                    .map(TimeLimit)
+                    .map_err(|_| E::invalid_value(de::Unexpected::Str(v), &self))
+            }
+        }
+        deserializer.deserialize_any(TimeLimitVisitor)
+    }
+}
+
+/// One design variable.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FactorFile {
+    /// Template parameter it sets.
+    pub name: String,
+    /// Lower bound, natural units.
+    pub min: f64,
+    /// Upper bound, natural units.
+    pub max: f64,
+    /// Unit, for reports; checked against the parameter's unit when given.
+    #[serde(default)]
+    pub unit: Option<String>,
+}
+
+/// Design types.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum DesignType {
+    /// Every combination of levels.
+    FullFactorial,
+    /// Central composite.
+    CentralComposite,
+    /// Box-Behnken.
+    BoxBehnken,
+    /// Latin hypercube.
+    LatinHypercube,
+}
+
+/// Central composite alpha choices.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum AlphaFile {
+    /// Orthogonal.
+    Orthogonal,
+    /// Rotatable.
+    Rotatable,
+    /// Face-centred.
+    #[serde(alias = "face_centered")]
+    FaceCentred,
+}
+
+/// The `design:` section; which fields apply depends on `type`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DesignFile {
+    /// Design type.
+    #[serde(rename = "type")]
+    pub kind: DesignType,
+    /// Full factorial: levels per factor (default 3).
+    #[serde(default)]
+    pub levels: Option<usize>,
+    /// Central composite: how alpha is chosen (default orthogonal).
+    #[serde(default)]
+    pub alpha: Option<AlphaFile>,
+    /// Central composite and Box-Behnken: centre runs (default 1).
+    #[serde(default)]
+    pub center_points: Option<usize>,
+    /// Latin hypercube: number of runs.
+    #[serde(default)]
+    pub samples: Option<usize>,
+    /// Latin hypercube: seed (default the study seed).
+    #[serde(default)]
+    pub seed: Option<u64>,
+}

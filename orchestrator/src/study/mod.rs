@@ -1,0 +1,508 @@
+//! Study files: parse, then validate into a [`Study`] that the driver can run.
+//!
+//! Parsing and validation happen before anything is written. Every error names the
+//! file, the line and column, the field and what was expected ([`StudyError`]).
+
+mod file;
+mod locate;
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use orch_adapters::{adapter_for, Case, ResolvedParameters, SolverAdapter, SOLVER_NAMES};
+use orch_metamodel::{CentralCompositeAlpha, Design, DesignKind, FactorRange};
+use sha2::{Digest, Sha256};
+
+pub use file::{ExecutorKind, StudyFile};
+use file::{AlphaFile, DesignFile, DesignType, ExecutorFile};
+pub use locate::Location;
+
+/// A study file that cannot be used, with where and why.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{}{}: {field}: {message}", path.display(), location.map(|l| format!(":{}:{}", l.line, l.column)).unwrap_or_default())]
+pub struct StudyError {
+    /// The study file.
+    pub path: PathBuf,
+    /// Where in it, when known.
+    pub location: Option<Location>,
+    /// The field path, e.g. `factors[1].max`; `(file)` for the file as a whole.
+    pub field: String,
+    /// What is wrong and what was expected.
+    pub message: String,
+}
+
+/// One design variable, validated.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Factor {
+    /// Template parameter it sets.
+    pub name: String,
+    /// Its range in natural units.
+    pub range: FactorRange,
+    /// Unit.
+    pub unit: String,
+}
+
+/// One point of the design: coded and natural coordinates, in factor order.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DesignPoint {
+    /// Coordinates in `[-1, 1]`.
+    pub coded: Vec<f64>,
+    /// Coordinates in natural units.
+    pub natural: Vec<f64>,
+}
+
+/// How jobs of a study run.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ExecutorConfig {
+    /// Which executor.
+    pub kind: ExecutorKind,
+    /// Jobs at once.
+    pub max_parallel: usize,
+    /// Wall-time limit per attempt.
+    pub time_limit: Option<Duration>,
+    /// Extra attempts after a failure.
+    pub retries: u32,
+}
+
+/// The template a study renders.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Template {
+    /// Its name in messages: the solver's default path or the user's file.
+    pub name: String,
+    /// Its text.
+    pub text: String,
+}
+
+/// A validated study: everything needed to create and run its jobs.
+#[derive(Clone)]
+pub struct Study {
+    /// Name.
+    pub name: String,
+    /// The solver's adapter.
+    pub adapter: &'static dyn SolverAdapter,
+    /// The template to render.
+    pub template: Template,
+    /// Executor settings.
+    pub executor: ExecutorConfig,
+    /// Design variables in order.
+    pub factors: Vec<Factor>,
+    /// Template parameters held constant.
+    pub fixed: BTreeMap<String, f64>,
+    /// Design points.
+    pub points: Vec<DesignPoint>,
+    /// Runs per point.
+    pub replicates: u32,
+    /// Base seed.
+    pub seed: u64,
+    /// Responses of interest.
+    pub responses: Vec<String>,
+    /// The file's text, kept in the store.
+    pub file_text: String,
+    /// SHA-256 of the file's text, hex.
+    pub file_sha256: String,
+}
+
+impl std::fmt::Debug for Study {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Study")
+            .field("name", &self.name)
+            .field("solver", &self.adapter.name())
+            .field("points", &self.points.len())
+            .finish_non_exhaustive()
+    }
+}
+
+impl Study {
+    /// Reads and validates the study file at `path`.
+    pub fn load(path: &Path) -> Result<Study, StudyError> {
+        let text = std::fs::read_to_string(path).map_err(|e| StudyError {
+            path: path.to_path_buf(),
+            location: None,
+            field: "(file)".into(),
+            message: format!("cannot read the study file: {e}"),
+        })?;
+        Study::from_text(path, &text, None)
+    }
+
+    /// Validates a study from its text. `path` names the file in errors and anchors a
+    /// relative `template:`; `stored_template` replaces reading the template from disk
+    /// (on resume, the template stored at submission is used).
+    pub fn from_text(
+        path: &Path,
+        text: &str,
+        stored_template: Option<Template>,
+    ) -> Result<Study, StudyError> {
+        let checker = Checker {
+            path,
+            locations: locate::value_locations(text),
+        };
+        let file = checker.parse(text)?;
+        checker.validate(file, text, stored_template)
+    }
+
+    /// Number of jobs: points × replicates.
+    pub fn job_count(&self) -> usize {
+        self.points.len() * self.replicates as usize
+    }
+
+    /// The fully resolved case of `point` with the solver seed `seed`.
+    pub fn case(&self, point: &DesignPoint, seed: u64) -> Case {
+        self.case_at(&point.natural, seed)
+    }
+
+    /// The fully resolved case at natural factor values `natural` (in factor order).
+    pub fn case_at(&self, natural: &[f64], seed: u64) -> Case {
+        let mut parameters = ResolvedParameters::defaults(self.adapter.parameters());
+        for (name, value) in &self.fixed {
+            parameters.set(name, *value);
+        }
+        for (factor, value) in self.factors.iter().zip(natural) {
+            parameters.set(&factor.name, *value);
+        }
+        Case { parameters, seed }
+    }
+
+    /// Seed of the job for `point_index` and `replicate`, derived from the base seed.
+    pub fn job_seed(&self, point_index: usize, replicate: u32) -> u64 {
+        self.seed
+            .wrapping_mul(1_000_003)
+            .wrapping_add(point_index as u64 * 1_000)
+            .wrapping_add(replicate as u64)
+    }
+}
+
+struct Checker<'a> {
+    path: &'a Path,
+    locations: std::collections::HashMap<String, Location>,
+}
+
+impl Checker<'_> {
+    fn error(&self, field: &str, message: impl Into<String>) -> StudyError {
+        // Point at the field, or at the closest enclosing one that exists.
+        let mut probe = field.to_string();
+        let location = loop {
+            if let Some(location) = self.locations.get(&probe) {
+                break Some(*location);
+            }
+            match probe.rfind(['.', '[']) {
+                Some(cut) => probe.truncate(cut),
+                None => break None,
+            }
+        };
+        StudyError {
+            path: self.path.to_path_buf(),
+            location,
+            field: field.to_string(),
+            message: message.into(),
+        }
+    }
+
+    fn parse(&self, text: &str) -> Result<StudyFile, StudyError> {
+        let deserializer = serde_yaml_ng::Deserializer::from_str(text);
+        serde_path_to_error::deserialize(deserializer).map_err(|error| {
+            let field = error.path().to_string();
+            let inner = error.inner();
+            let location = inner.location().map(|l| Location {
+                line: l.line(),
+                column: l.column(),
+            });
+            let mut message = inner.to_string();
+            if let Some(cut) = message.rfind(" at line ") {
+                message.truncate(cut);
+            }
+            // serde_yaml_ng starts its message with the path of the enclosing value.
+            if let Some((prefix, rest)) = message.split_once(": ") {
+                if !prefix.contains(' ') && field.starts_with(prefix) {
+                    message = rest.to_string();
+                }
+            }
+            let field = if field == "." { "(file)".to_string() } else { field };
+            StudyError {
+                path: self.path.to_path_buf(),
+                location,
+                field,
+                message,
+            }
+        })
+    }
+
+    fn validate(
+        &self,
+        file: StudyFile,
+        text: &str,
+        stored_template: Option<Template>,
+    ) -> Result<Study, StudyError> {
+        if file.name.is_empty()
+            || !file
+                .name
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_')
+        {
+            return Err(self.error(
+                "name",
+                format!("expected letters, digits, `-` or `_` (it names folders), got `{}`", file.name),
+            ));
+        }
+        let adapter = adapter_for(&file.solver).ok_or_else(|| {
+            self.error(
+                "solver",
+                format!("unknown solver `{}`; expected one of: {}", file.solver, SOLVER_NAMES.join(", ")),
+            )
+        })?;
+        let template = match (stored_template, &file.template) {
+            (Some(stored), _) => stored,
+            (None, None) => Template {
+                name: adapter.default_template_name().to_string(),
+                text: adapter.default_template().to_string(),
+            },
+            (None, Some(relative)) => {
+                let base = self.path.parent().unwrap_or(Path::new("."));
+                let resolved = base.join(relative);
+                let text = std::fs::read_to_string(&resolved).map_err(|e| {
+                    self.error(
+                        "template",
+                        format!("cannot read the template {}: {e}; expected a Tera template file, relative to the study file", resolved.display()),
+                    )
+                })?;
+                Template {
+                    name: resolved.display().to_string(),
+                    text,
+                }
+            }
+        };
+        let custom_template = file.template.is_some();
+        let specs = adapter.parameters();
+        let spec_of = |name: &str| specs.iter().find(|s| s.name == name);
+        let known_names = || specs.iter().map(|s| s.name).collect::<Vec<_>>().join(", ");
+
+        if file.factors.is_empty() {
+            return Err(self.error("factors", "expected at least one factor"));
+        }
+        let mut factors = Vec::with_capacity(file.factors.len());
+        for (i, factor) in file.factors.iter().enumerate() {
+            let at = |field: &str| format!("factors[{i}].{field}");
+            if file.factors[..i].iter().any(|f| f.name == factor.name) {
+                return Err(self.error(&at("name"), format!("factor `{}` is listed twice", factor.name)));
+            }
+            if file.fixed.contains_key(&factor.name) {
+                return Err(self.error(
+                    &at("name"),
+                    format!("`{}` is both a factor and fixed; remove it from one of them", factor.name),
+                ));
+            }
+            if !(factor.min.is_finite() && factor.max.is_finite()) {
+                return Err(self.error(&at("min"), "expected finite numbers for min and max"));
+            }
+            if factor.min >= factor.max {
+                return Err(self.error(
+                    &at("max"),
+                    format!("expected max greater than min ({}), got {}", factor.min, factor.max),
+                ));
+            }
+            let unit = match spec_of(&factor.name) {
+                Some(spec) => {
+                    if factor.min < spec.min || factor.max > spec.max {
+                        return Err(self.error(
+                            &at(if factor.min < spec.min { "min" } else { "max" }),
+                            format!(
+                                "`{}` must lie within [{}, {}] {}, got [{}, {}]",
+                                factor.name, spec.min, spec.max, spec.unit, factor.min, factor.max
+                            ),
+                        ));
+                    }
+                    if let Some(unit) = &factor.unit {
+                        if unit != spec.unit {
+                            return Err(self.error(
+                                &at("unit"),
+                                format!("`{}` is in {} (SI), got `{unit}`", factor.name, spec.unit),
+                            ));
+                        }
+                    }
+                    spec.unit.to_string()
+                }
+                None if custom_template => factor.unit.clone().unwrap_or_default(),
+                None => {
+                    return Err(self.error(
+                        &at("name"),
+                        format!(
+                            "`{}` is not a parameter of the {} template; expected one of: {}",
+                            factor.name,
+                            adapter.name(),
+                            known_names()
+                        ),
+                    ))
+                }
+            };
+            factors.push(Factor {
+                name: factor.name.clone(),
+                range: FactorRange { min: factor.min, max: factor.max },
+                unit,
+            });
+        }
+        for (name, value) in &file.fixed {
+            let at = format!("fixed.{name}");
+            match spec_of(name) {
+                Some(spec) if !(spec.min..=spec.max).contains(value) => {
+                    return Err(self.error(
+                        &at,
+                        format!("`{name}` must lie within [{}, {}] {}, got {value}", spec.min, spec.max, spec.unit),
+                    ))
+                }
+                None if !custom_template => {
+                    return Err(self.error(
+                        &at,
+                        format!(
+                            "`{name}` is not a parameter of the {} template; expected one of: {}",
+                            adapter.name(),
+                            known_names()
+                        ),
+                    ))
+                }
+                _ => {}
+            }
+        }
+        let design_kind = self.design_kind(&file.design, file.seed)?;
+        let design = Design::build(&design_kind, factors.len())
+            .map_err(|e| self.error("design", e.to_string()))?;
+        let points: Vec<DesignPoint> = design
+            .points
+            .into_iter()
+            .map(|coded| DesignPoint {
+                natural: coded
+                    .iter()
+                    .zip(&factors)
+                    .map(|(c, f)| f.range.to_natural(*c))
+                    .collect(),
+                coded,
+            })
+            .collect();
+        if file.replicates == 0 {
+            return Err(self.error("replicates", "expected at least 1"));
+        }
+        let known_responses = orch_granular::responses::response_names();
+        for (i, response) in file.responses.iter().enumerate() {
+            if !known_responses.contains(response) {
+                return Err(self.error(
+                    &format!("responses[{i}]"),
+                    format!("unknown response `{response}`; expected one of: {}", known_responses.join(", ")),
+                ));
+            }
+        }
+        let executor = self.executor(&file.executor, adapter)?;
+        let study = Study {
+            name: file.name,
+            adapter,
+            template,
+            executor,
+            factors,
+            fixed: file.fixed,
+            points,
+            replicates: file.replicates,
+            seed: file.seed,
+            responses: file.responses,
+            file_text: text.to_string(),
+            file_sha256: format!("{:x}", Sha256::digest(text.as_bytes())),
+        };
+        // Every point must describe something the solver can build.
+        for (index, point) in study.points.iter().enumerate() {
+            let case = study.case(point, 0);
+            if let Err(e) = adapter.check(&case) {
+                let values: Vec<String> = study
+                    .factors
+                    .iter()
+                    .zip(&point.natural)
+                    .map(|(f, v)| format!("{} = {v}", f.name))
+                    .collect();
+                return Err(self.error(
+                    "factors",
+                    format!("design point {index} ({}) cannot run: {e}", values.join(", ")),
+                ));
+            }
+        }
+        Ok(study)
+    }
+
+    fn design_kind(&self, design: &DesignFile, study_seed: u64) -> Result<DesignKind, StudyError> {
+        let refuse = |field: &str, present: bool, kind: &str| {
+            if present {
+                Err(self.error(&format!("design.{field}"), format!("`{field}` does not apply to a {kind} design")))
+            } else {
+                Ok(())
+            }
+        };
+        Ok(match design.kind {
+            DesignType::FullFactorial => {
+                refuse("alpha", design.alpha.is_some(), "full_factorial")?;
+                refuse("center_points", design.center_points.is_some(), "full_factorial")?;
+                refuse("samples", design.samples.is_some(), "full_factorial")?;
+                refuse("seed", design.seed.is_some(), "full_factorial")?;
+                DesignKind::FullFactorial { levels: design.levels.unwrap_or(3) }
+            }
+            DesignType::CentralComposite => {
+                refuse("levels", design.levels.is_some(), "central_composite")?;
+                refuse("samples", design.samples.is_some(), "central_composite")?;
+                refuse("seed", design.seed.is_some(), "central_composite")?;
+                DesignKind::CentralComposite {
+                    alpha: match design.alpha.unwrap_or(AlphaFile::Orthogonal) {
+                        AlphaFile::Orthogonal => CentralCompositeAlpha::Orthogonal,
+                        AlphaFile::Rotatable => CentralCompositeAlpha::Rotatable,
+                        AlphaFile::FaceCentred => CentralCompositeAlpha::FaceCentred,
+                    },
+                    center_points: design.center_points.unwrap_or(1),
+                }
+            }
+            DesignType::BoxBehnken => {
+                refuse("levels", design.levels.is_some(), "box_behnken")?;
+                refuse("alpha", design.alpha.is_some(), "box_behnken")?;
+                refuse("samples", design.samples.is_some(), "box_behnken")?;
+                refuse("seed", design.seed.is_some(), "box_behnken")?;
+                DesignKind::BoxBehnken { center_points: design.center_points.unwrap_or(1) }
+            }
+            DesignType::LatinHypercube => {
+                refuse("levels", design.levels.is_some(), "latin_hypercube")?;
+                refuse("alpha", design.alpha.is_some(), "latin_hypercube")?;
+                refuse("center_points", design.center_points.is_some(), "latin_hypercube")?;
+                let samples = design
+                    .samples
+                    .ok_or_else(|| self.error("design", "a latin_hypercube design needs `samples:` (number of runs)"))?;
+                DesignKind::LatinHypercube {
+                    samples,
+                    seed: design.seed.unwrap_or(study_seed),
+                    candidates: 50,
+                }
+            }
+        })
+    }
+
+    fn executor(
+        &self,
+        executor: &ExecutorFile,
+        adapter: &dyn SolverAdapter,
+    ) -> Result<ExecutorConfig, StudyError> {
+        let cores = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
+        let per_job = adapter.command(&Case { parameters: Default::default(), seed: 0 }).cores.max(1);
+        let max_parallel = match executor.max_parallel {
+            Some(0) => return Err(self.error("executor.max_parallel", "expected at least 1")),
+            Some(n) => n,
+            None => (cores / per_job).max(1),
+        };
+        if let Some(limit) = executor.time_limit {
+            if limit.0.is_zero() {
+                return Err(self.error("executor.time_limit", "expected a positive duration"));
+            }
+        }
+        if executor.retries > 100 {
+            return Err(self.error("executor.retries", format!("expected at most 100, got {}", executor.retries)));
+        }
+        Ok(ExecutorConfig {
+            kind: executor.kind,
+            max_parallel,
+            time_limit: executor.time_limit.map(|t| t.0),
+            retries: executor.retries,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests;

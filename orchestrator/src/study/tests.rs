@@ -1,0 +1,153 @@
+use std::path::Path;
+
+use super::*;
+
+const VALID: &str = "\
+name: hopper-vibration
+solver: liggghts
+executor:
+  max_parallel: 2
+  time_limit: 10min
+  retries: 1
+factors:
+  - {name: amplitude, min: 0.0002, max: 0.0009, unit: m}
+  - {name: frequency, min: 20, max: 50, unit: Hz}
+  - {name: valve_gap, min: 0.010, max: 0.025}
+fixed:
+  valve_diameter: 0.012
+design:
+  type: central_composite
+  alpha: orthogonal
+  center_points: 1
+responses: [discharge_rate, segregation_ratio]
+";
+
+fn load(text: &str) -> Result<Study, StudyError> {
+    Study::from_text(Path::new("jobs/study.yaml"), text, None)
+}
+
+/// The error's full message, as a user sees it.
+fn error(text: &str) -> String {
+    load(text).unwrap_err().to_string()
+}
+
+#[test]
+fn a_valid_three_factor_ccd_has_fifteen_runs() {
+    let study = load(VALID).unwrap();
+    assert_eq!(study.points.len(), 15);
+    assert_eq!(study.executor.max_parallel, 2);
+    assert_eq!(study.executor.time_limit, Some(Duration::from_secs(600)));
+    // Natural values stay within the factor ranges.
+    for point in &study.points {
+        for (value, factor) in point.natural.iter().zip(&study.factors) {
+            assert!(*value >= factor.range.min - 1e-12 && *value <= factor.range.max + 1e-12);
+        }
+    }
+    let case = study.case(&study.points[14], 5);
+    assert_eq!(case.get("valve_diameter"), 0.012);
+    assert!((case.get("frequency") - 35.0).abs() < 1e-12);
+}
+
+#[test]
+fn a_two_factor_ccd_has_nine_runs() {
+    let text = VALID.replace("  - {name: valve_gap, min: 0.010, max: 0.025}\n", "");
+    assert_eq!(load(&text).unwrap().points.len(), 9);
+}
+
+#[test]
+fn unknown_key_is_refused_with_line_and_column() {
+    let text = VALID.replace("  retries: 1\n", "  retries: 1\n  retrys: 2\n");
+    assert_eq!(
+        error(&text),
+        "jobs/study.yaml:7:3: executor.retrys: unknown field `retrys`, expected one of `kind`, `max_parallel`, `time_limit`, `retries`"
+    );
+}
+
+#[test]
+fn wrong_type_is_refused_with_the_field_path() {
+    let text = VALID.replace("min: 20, max: 50", "min: twenty, max: 50");
+    assert_eq!(
+        error(&text),
+        "jobs/study.yaml:9:28: factors[1].min: invalid type: string \"twenty\", expected f64"
+    );
+}
+
+#[test]
+fn min_not_below_max_is_refused() {
+    let text = VALID.replace("min: 20, max: 50", "min: 50, max: 20");
+    assert_eq!(
+        error(&text),
+        "jobs/study.yaml:9:37: factors[1].max: expected max greater than min (50), got 20"
+    );
+}
+
+#[test]
+fn unknown_solver_is_refused() {
+    let text = VALID.replace("solver: liggghts", "solver: edem");
+    assert_eq!(
+        error(&text),
+        "jobs/study.yaml:2:9: solver: unknown solver `edem`; expected one of: liggghts"
+    );
+}
+
+#[test]
+fn missing_template_is_refused() {
+    let text = VALID.replace("solver: liggghts\n", "solver: liggghts\ntemplate: no/such.in.tera\n");
+    let message = error(&text);
+    assert!(
+        message.starts_with("jobs/study.yaml:3:11: template: cannot read the template jobs/no/such.in.tera: "),
+        "{message}"
+    );
+}
+
+#[test]
+fn unknown_parameter_and_out_of_range_values_are_refused() {
+    let text = VALID.replace("name: valve_gap", "name: valve_gapp");
+    let message = error(&text);
+    assert!(message.starts_with("jobs/study.yaml:10:12: factors[2].name: `valve_gapp` is not a parameter of the liggghts template; expected one of: n_particles,"), "{message}");
+    let text = VALID.replace("valve_diameter: 0.012", "restitution: 1.5");
+    assert_eq!(
+        error(&text),
+        "jobs/study.yaml:12:16: fixed.restitution: `restitution` must lie within [0.01, 1] -, got 1.5"
+    );
+}
+
+#[test]
+fn design_fields_that_do_not_apply_are_refused() {
+    let text = VALID.replace("  alpha: orthogonal\n", "  alpha: orthogonal\n  levels: 3\n");
+    assert_eq!(
+        error(&text),
+        "jobs/study.yaml:16:11: design.levels: `levels` does not apply to a central_composite design"
+    );
+}
+
+#[test]
+fn impossible_design_points_are_refused_before_running() {
+    let text = VALID.replace(
+        "fixed:\n  valve_diameter: 0.012\n",
+        "fixed:\n  valve_diameter: 0.040\n",
+    );
+    let message = error(&text);
+    assert!(message.starts_with("jobs/study.yaml:8:3: factors: design point 0 ("), "{message}");
+    assert!(message.contains("does not fit"), "{message}");
+}
+
+#[test]
+fn syntax_errors_point_at_the_text() {
+    let message = error("name: 'unterminated\n");
+    assert!(message.starts_with("jobs/study.yaml:2:1: name: found unexpected end of stream"), "{message}");
+}
+
+#[test]
+fn latin_hypercube_needs_samples() {
+    let text = VALID.replace(
+        "  type: central_composite\n  alpha: orthogonal\n  center_points: 1\n",
+        "  type: latin_hypercube\n",
+    );
+    assert_eq!(
+        error(&text),
+        "jobs/study.yaml:14:7: design: a latin_hypercube design needs `samples:` (number of runs)"
+    );
+    let text = text.replace("  type: latin_hypercube\n", "  type: latin_hypercube\n  samples: 12\n  seed: 4\n");
+    assert_eq!(load(&text).unwrap().points.len(), 12);
+}

@@ -6,8 +6,8 @@ use anyhow::Context;
 use clap::{Parser, Subcommand};
 
 use crate::driver::{self, Ending};
-use crate::exit_codes;
 use crate::executor::process::{self, ProcessHandle};
+use crate::exit_codes;
 use crate::project;
 use crate::status::{self, StudyDetail};
 use crate::store::{JobState, Store, StudyRow, StudyState};
@@ -82,23 +82,34 @@ pub struct InputError {
 }
 
 fn input_error(message: impl Into<String>) -> anyhow::Error {
-    InputError { message: message.into() }.into()
+    InputError {
+        message: message.into(),
+    }
+    .into()
 }
 
 /// Runs the command; returns the exit code.
 pub async fn run(args: Args) -> anyhow::Result<i32> {
     let project_dir = args.project_dir.as_deref();
     match args.command {
-        Command::Submit { study_file, dry_run } => submit(&study_file, project_dir, dry_run).await,
+        Command::Submit {
+            study_file,
+            dry_run,
+        } => submit(&study_file, project_dir, dry_run).await,
         Command::Status { study, json } => show_status(project_dir, study.as_deref(), json).await,
         Command::Logs { job, tail } => logs(project_dir, &job, tail).await,
         Command::Cancel { study } => cancel(project_dir, &study).await,
-        Command::Resume { study, retry_failed } => resume(project_dir, &study, retry_failed).await,
+        Command::Resume {
+            study,
+            retry_failed,
+        } => resume(project_dir, &study, retry_failed).await,
     }
 }
 
 fn study_error(error: StudyError) -> anyhow::Error {
-    input_error(format!("{error}\nFix the study file and submit it again; nothing was written."))
+    input_error(format!(
+        "{error}\nFix the study file and submit it again; nothing was written."
+    ))
 }
 
 /// True when `program` can be started: an existing path, or a name found on PATH.
@@ -111,17 +122,36 @@ fn program_exists(program: &str) -> bool {
         .unwrap_or(false)
 }
 
-async fn submit(study_file: &Path, project_dir: Option<&Path>, dry_run: bool) -> anyhow::Result<i32> {
+async fn submit(
+    study_file: &Path,
+    project_dir: Option<&Path>,
+    dry_run: bool,
+) -> anyhow::Result<i32> {
     let study = Study::load(study_file).map_err(study_error)?;
     if dry_run {
-        println!("{}: {} design points × {} replicates = {} jobs on {}", study.name, study.points.len(), study.replicates, study.job_count(), study.adapter.name());
+        println!(
+            "{}: {} design points × {} replicates = {} jobs on {}",
+            study.name,
+            study.points.len(),
+            study.replicates,
+            study.job_count(),
+            study.adapter.name()
+        );
         for (i, point) in study.points.iter().enumerate() {
-            let values: Vec<String> = study.factors.iter().zip(&point.natural).map(|(f, v)| format!("{} = {v:.6} {}", f.name, f.unit)).collect();
+            let values: Vec<String> = study
+                .factors
+                .iter()
+                .zip(&point.natural)
+                .map(|(f, v)| format!("{} = {v:.6} {}", f.name, f.unit))
+                .collect();
             println!("  p{i:03}: {}", values.join(", "));
         }
         return Ok(exit_codes::SUCCESS);
     }
-    let program = study.adapter.command(&study.case(&study.points[0], 0)).program;
+    let program = study
+        .adapter
+        .command(&study.case(&study.points[0], 0))
+        .program;
     if !program_exists(&program) {
         return Err(input_error(format!(
             "the {} solver `{program}` is not installed (not found on PATH); install it with `{}` and submit again; nothing was written",
@@ -129,8 +159,12 @@ async fn submit(study_file: &Path, project_dir: Option<&Path>, dry_run: bool) ->
             study.adapter.install_hint()
         )));
     }
-    let project = project::for_study_file(study_file, project_dir)
-        .with_context(|| format!("cannot resolve the project directory of {}", study_file.display()))?;
+    let project = project::for_study_file(study_file, project_dir).with_context(|| {
+        format!(
+            "cannot resolve the project directory of {}",
+            study_file.display()
+        )
+    })?;
     let study_file = &std::path::absolute(study_file).unwrap_or_else(|_| study_file.to_path_buf());
     let store = Store::open(&project).await?;
     match store.study_by_name(&study.name).await? {
@@ -161,14 +195,19 @@ async fn submit(study_file: &Path, project_dir: Option<&Path>, dry_run: bool) ->
             );
         }
     }
-    let row = store.study_by_name(&study.name).await?.context("the study vanished from the store")?;
+    let row = store
+        .study_by_name(&study.name)
+        .await?
+        .context("the study vanished from the store")?;
     drive(&store, &row, &study).await
 }
 
 /// Claims the study, drives it, releases it, and reports.
 async fn drive(store: &Store, row: &StudyRow, study: &Study) -> anyhow::Result<i32> {
     let (pid, started) = process::current();
-    store.claim_driver(row, pid, started, process::is_alive).await?;
+    store
+        .claim_driver(row, pid, started, process::is_alive)
+        .await?;
     let outcome = driver::drive(store, row.id, study).await;
     let final_state = match &outcome {
         Ok(summary) => match summary.ending {
@@ -212,7 +251,11 @@ async fn find(project_dir: Option<&Path>, name: &str) -> anyhow::Result<(Store, 
     }
 }
 
-async fn show_status(project_dir: Option<&Path>, study: Option<&str>, as_json: bool) -> anyhow::Result<i32> {
+async fn show_status(
+    project_dir: Option<&Path>,
+    study: Option<&str>,
+    as_json: bool,
+) -> anyhow::Result<i32> {
     match study {
         None => {
             let stores = project::open_all(&project::discover(project_dir)).await?;
@@ -220,10 +263,18 @@ async fn show_status(project_dir: Option<&Path>, study: Option<&str>, as_json: b
         }
         Some(name) => {
             let (store, row) = find(project_dir, name).await?;
-            let project = store.path().parent().unwrap_or(Path::new(".")).to_path_buf();
-            let responses = Study::from_text(Path::new(&row.file_path), &row.file_text, Some(stored_template(&row)))
-                .map(|s| s.responses)
-                .unwrap_or_default();
+            let project = store
+                .path()
+                .parent()
+                .unwrap_or(Path::new("."))
+                .to_path_buf();
+            let responses = Study::from_text(
+                Path::new(&row.file_path),
+                &row.file_text,
+                Some(stored_template(&row)),
+            )
+            .map(|s| s.responses)
+            .unwrap_or_default();
             let detail = StudyDetail::load(&store, row).await?;
             if as_json {
                 println!("{}", serde_json::to_string_pretty(&detail.json(&project))?);
@@ -236,7 +287,10 @@ async fn show_status(project_dir: Option<&Path>, study: Option<&str>, as_json: b
 }
 
 fn stored_template(row: &StudyRow) -> Template {
-    Template { name: row.template_name.clone(), text: row.template_text.clone() }
+    Template {
+        name: row.template_name.clone(),
+        text: row.template_text.clone(),
+    }
 }
 
 async fn logs(project_dir: Option<&Path>, reference: &str, tail: usize) -> anyhow::Result<i32> {
@@ -260,20 +314,52 @@ async fn logs(project_dir: Option<&Path>, reference: &str, tail: usize) -> anyho
     }
     let (study, job) = match matches.len() {
         1 => matches.remove(0),
-        0 => return Err(input_error(format!("no job `{reference}`; `orch status STUDY` lists a study's jobs"))),
-        _ => return Err(input_error(format!("`{job_name}` is in several studies; name it as STUDY/{job_name}"))),
+        0 => {
+            return Err(input_error(format!(
+                "no job `{reference}`; `orch status STUDY` lists a study's jobs"
+            )))
+        }
+        _ => {
+            return Err(input_error(format!(
+                "`{job_name}` is in several studies; name it as STUDY/{job_name}"
+            )))
+        }
     };
-    let adapter = orch_adapters::adapter_for(&study.solver).context("the study's solver is unknown to this orch")?;
-    let log_file = adapter.command(&orch_adapters::Case { parameters: Default::default(), seed: 0 }).log_file;
-    println!("job {}/{}: {} after {} attempt(s){}", study.name, job.name, job.state, job.attempts, job.error.as_ref().map(|e| format!("; {e}")).unwrap_or_default());
+    let adapter = orch_adapters::adapter_for(&study.solver)
+        .context("the study's solver is unknown to this orch")?;
+    let log_file = adapter
+        .command(&orch_adapters::Case {
+            parameters: Default::default(),
+            seed: 0,
+        })
+        .log_file;
+    println!(
+        "job {}/{}: {} after {} attempt(s){}",
+        study.name,
+        job.name,
+        job.state,
+        job.attempts,
+        job.error
+            .as_ref()
+            .map(|e| format!("; {e}"))
+            .unwrap_or_default()
+    );
     let run_dir = PathBuf::from(&job.run_dir);
-    for file in [crate::executor::STDOUT_FILE, crate::executor::STDERR_FILE, log_file.as_str()] {
+    for file in [
+        crate::executor::STDOUT_FILE,
+        crate::executor::STDERR_FILE,
+        log_file.as_str(),
+    ] {
         let path = run_dir.join(file);
         println!("==> {} <==", path.display());
-        match std::fs::read_to_string(&path) {
+        match std::fs::read(&path).map(|bytes| String::from_utf8_lossy(&bytes).into_owned()) {
             Ok(text) => {
                 let lines: Vec<&str> = text.lines().collect();
-                let from = if tail == 0 { 0 } else { lines.len().saturating_sub(tail) };
+                let from = if tail == 0 {
+                    0
+                } else {
+                    lines.len().saturating_sub(tail)
+                };
                 for line in &lines[from..] {
                     println!("{line}");
                 }
@@ -293,14 +379,22 @@ async fn cancel(project_dir: Option<&Path>, name: &str) -> anyhow::Result<i32> {
         if job.state().is_final() {
             continue;
         }
-        if let Some(handle) = job.executor_handle.as_deref().and_then(ProcessHandle::parse) {
+        if let Some(handle) = job
+            .executor_handle
+            .as_deref()
+            .and_then(ProcessHandle::parse)
+        {
             if handle.is_alive() {
                 process::signal_group(handle.pid, nix::sys::signal::Signal::SIGKILL);
                 killed += 1;
             }
         }
         // The driver, if one runs, may get there first; that is fine.
-        if store.mark_cancelled(job.id, "cancelled by orch cancel").await.is_ok() {
+        if store
+            .mark_cancelled(job.id, "cancelled by orch cancel")
+            .await
+            .is_ok()
+        {
             cancelled += 1;
         }
     }
@@ -321,10 +415,19 @@ async fn reopen(store: &Store, row: &StudyRow, retry_failed: bool) -> anyhow::Re
 
 async fn resume(project_dir: Option<&Path>, name: &str, retry_failed: bool) -> anyhow::Result<i32> {
     let (store, row) = find(project_dir, name).await?;
-    let study = Study::from_text(Path::new(&row.file_path), &row.file_text, Some(stored_template(&row)))
-        .map_err(|e| input_error(format!("the stored study file no longer validates: {e}")))?;
+    let study = Study::from_text(
+        Path::new(&row.file_path),
+        &row.file_text,
+        Some(stored_template(&row)),
+    )
+    .map_err(|e| input_error(format!("the stored study file no longer validates: {e}")))?;
     reopen(&store, &row, retry_failed).await?;
-    if store.jobs(row.id).await?.iter().all(|j| j.state().is_final()) {
+    if store
+        .jobs(row.id)
+        .await?
+        .iter()
+        .all(|j| j.state().is_final())
+    {
         eprintln!("orch: every job of `{name}` is final; nothing to resume (use --retry-failed to run failed jobs again)");
     }
     drive(&store, &row, &study).await

@@ -25,7 +25,9 @@ use orch_granular::{DischargeResponses, ResponseOptions};
 use tokio::signal::unix::{signal, SignalKind};
 
 use crate::executor::process::ProcessHandle;
-use crate::executor::{JobStatus, LaunchSpec, LocalExecutor, ATTEMPTS_LOG, STDERR_FILE, STDOUT_FILE};
+use crate::executor::{
+    JobStatus, LaunchSpec, LocalExecutor, ATTEMPTS_LOG, STDERR_FILE, STDOUT_FILE,
+};
 use crate::store::{now_s, JobResults, JobRow, JobState, PointRow, Store, StoreError, StudyState};
 use crate::study::Study;
 
@@ -98,7 +100,9 @@ pub async fn drive(store: &Store, study_id: i64, study: &Study) -> Result<Summar
             _ = ticker.tick() => {}
         }
         driver.executor.tidy();
-        driver.terminating.retain(|_, pgid| crate::executor::process::group_exists(*pgid));
+        driver
+            .terminating
+            .retain(|_, pgid| crate::executor::process::group_exists(*pgid));
         if store.study_state(study_id).await? == StudyState::Cancelled {
             break driver.stop_for_cancel().await?;
         }
@@ -107,7 +111,10 @@ pub async fn drive(store: &Store, study_id: i64, study: &Study) -> Result<Summar
             driver.poll(job).await?;
         }
         let jobs = store.jobs(study_id).await?;
-        let running = jobs.iter().filter(|j| j.state() == JobState::Running).count();
+        let running = jobs
+            .iter()
+            .filter(|j| j.state() == JobState::Running)
+            .count();
         let free = study.executor.max_parallel.saturating_sub(running);
         let launchable: Vec<&JobRow> = jobs
             .iter()
@@ -121,6 +128,8 @@ pub async fn drive(store: &Store, study_id: i64, study: &Study) -> Result<Summar
             break Ending::Finished;
         }
     };
+    // Jobs killed for their time limit must be gone before orch reports and exits.
+    driver.wait_for_terminations().await;
     let jobs = store.jobs(study_id).await?;
     let count = |state: JobState| jobs.iter().filter(|j| j.state() == state).count();
     Ok(Summary {
@@ -148,8 +157,16 @@ impl Driver<'_> {
     async fn reconcile(&mut self) -> Result<(), DriverError> {
         for job in self.store.jobs(self.study_id).await? {
             if matches!(job.state(), JobState::Rendered | JobState::Submitted) {
+                if let Some(pid) = crate::executor::local::kill_unrecorded(Path::new(&job.run_dir))
+                {
+                    tracing::warn!(job = %job.name, pid, "killed a solver launched by a stopped orch before its handle was recorded");
+                }
                 self.store
-                    .requeue(job.id, "orch stopped before launching it; rendered again", false)
+                    .requeue(
+                        job.id,
+                        "orch stopped before launching it; rendered again",
+                        false,
+                    )
                     .await?;
             }
         }
@@ -166,12 +183,23 @@ impl Driver<'_> {
         let case = self.case(job);
         if let Err(e) = clean_run_dir(&run_dir) {
             self.store
-                .mark_failed(job.id, None, &format!("cannot prepare the run directory {}: {e}", run_dir.display()))
+                .mark_failed(
+                    job.id,
+                    None,
+                    &format!(
+                        "cannot prepare the run directory {}: {e}",
+                        run_dir.display()
+                    ),
+                )
                 .await?;
             return Ok(());
         }
         let template = &self.study.template;
-        if let Err(e) = self.study.adapter.render(&case, &template.name, &template.text, &run_dir) {
+        if let Err(e) = self
+            .study
+            .adapter
+            .render(&case, &template.name, &template.text, &run_dir)
+        {
             let message = format!("cannot render the case: {e}");
             self.report(job, &message);
             self.store.mark_failed(job.id, None, &message).await?;
@@ -184,7 +212,9 @@ impl Driver<'_> {
         };
         match self.executor.launch(&spec) {
             Ok(handle) => {
-                self.store.mark_running(job.id, &handle.to_string(), now_s()).await?;
+                self.store
+                    .mark_running(job.id, &handle.to_string(), now_s())
+                    .await?;
                 tracing::info!(job = %job.name, handle = %handle, "launched");
             }
             Err(e) => {
@@ -195,8 +225,14 @@ impl Driver<'_> {
     }
 
     async fn poll(&mut self, job: &JobRow) -> Result<(), DriverError> {
-        let Some(handle) = job.executor_handle.as_deref().and_then(ProcessHandle::parse) else {
-            self.store.requeue(job.id, "its handle was unreadable; it runs again", false).await?;
+        let Some(handle) = job
+            .executor_handle
+            .as_deref()
+            .and_then(ProcessHandle::parse)
+        else {
+            self.store
+                .requeue(job.id, "its handle was unreadable; it runs again", false)
+                .await?;
             return Ok(());
         };
         let run_dir = PathBuf::from(&job.run_dir);
@@ -210,7 +246,10 @@ impl Driver<'_> {
                     let reason = format!(
                         "exceeded its time limit of {}; {}",
                         humantime::format_duration(limit),
-                        failure_summary(&run_dir, &self.study.adapter.command(&self.case(job)).log_file)
+                        failure_summary(
+                            &run_dir,
+                            &self.study.adapter.command(&self.case(job)).log_file
+                        )
                     );
                     self.fail_or_retry(job, None, reason).await?;
                 }
@@ -218,7 +257,10 @@ impl Driver<'_> {
             JobStatus::Exited(0) => self.collect(job, &run_dir).await?,
             JobStatus::Exited(code) => {
                 let log_file = self.study.adapter.command(&self.case(job)).log_file;
-                let reason = format!("the solver exited with status {code}; {}", failure_summary(&run_dir, &log_file));
+                let reason = format!(
+                    "the solver exited with status {code}; {}",
+                    failure_summary(&run_dir, &log_file)
+                );
                 self.fail_or_retry(job, Some(code), reason).await?;
             }
             JobStatus::Lost => {
@@ -252,10 +294,18 @@ impl Driver<'_> {
         Ok(())
     }
 
-    async fn fail_or_retry(&mut self, job: &JobRow, exit_code: Option<i32>, reason: String) -> Result<(), DriverError> {
+    async fn fail_or_retry(
+        &mut self,
+        job: &JobRow,
+        exit_code: Option<i32>,
+        reason: String,
+    ) -> Result<(), DriverError> {
         let budget = 1 + self.study.executor.retries as i64;
         if job.attempts < budget {
-            let note = format!("attempt {} of {budget} failed: {reason}; retrying", job.attempts);
+            let note = format!(
+                "attempt {} of {budget} failed: {reason}; retrying",
+                job.attempts
+            );
             self.report(job, &note);
             self.store.requeue(job.id, &note, false).await?;
         } else {
@@ -267,15 +317,26 @@ impl Driver<'_> {
 
     /// Ctrl-C / SIGTERM: terminate running jobs, put them back, mark the study.
     async fn interrupt(&mut self) -> Result<Ending, DriverError> {
-        eprintln!("orch: interrupted; stopping running jobs (they will run again on `orch resume {}`)", self.study.name);
+        eprintln!(
+            "orch: interrupted; stopping running jobs (they will run again on `orch resume {}`)",
+            self.study.name
+        );
         for job in self.store.jobs(self.study_id).await? {
             if job.state() == JobState::Running {
-                if let Some(handle) = job.executor_handle.as_deref().and_then(ProcessHandle::parse) {
+                if let Some(handle) = job
+                    .executor_handle
+                    .as_deref()
+                    .and_then(ProcessHandle::parse)
+                {
                     self.executor.terminate(handle);
                 }
-                self.store.requeue(job.id, "interrupted by the user", true).await?;
+                self.store
+                    .requeue(job.id, "interrupted by the user", true)
+                    .await?;
             } else if job.state() == JobState::Rendered {
-                self.store.requeue(job.id, "interrupted by the user", true).await?;
+                self.store
+                    .requeue(job.id, "interrupted by the user", true)
+                    .await?;
             }
         }
         self.wait_for_terminations().await;
@@ -286,10 +347,17 @@ impl Driver<'_> {
     async fn stop_for_cancel(&mut self) -> Result<Ending, DriverError> {
         for job in self.store.jobs(self.study_id).await? {
             if !job.state().is_final() {
-                if let Some(handle) = job.executor_handle.as_deref().and_then(ProcessHandle::parse) {
+                if let Some(handle) = job
+                    .executor_handle
+                    .as_deref()
+                    .and_then(ProcessHandle::parse)
+                {
                     self.executor.terminate(handle);
                 }
-                self.store.mark_cancelled(job.id, "cancelled by orch cancel").await.ok();
+                self.store
+                    .mark_cancelled(job.id, "cancelled by orch cancel")
+                    .await
+                    .ok();
             }
         }
         self.wait_for_terminations().await;
@@ -297,7 +365,8 @@ impl Driver<'_> {
     }
 
     async fn wait_for_terminations(&mut self) {
-        let deadline = Instant::now() + crate::executor::local::TERMINATION_GRACE + Duration::from_secs(2);
+        let deadline =
+            Instant::now() + crate::executor::local::TERMINATION_GRACE + Duration::from_secs(2);
         while self.executor.terminating() > 0 && Instant::now() < deadline {
             self.executor.tidy();
             tokio::time::sleep(Duration::from_millis(50)).await;
@@ -305,25 +374,36 @@ impl Driver<'_> {
     }
 
     fn report(&self, job: &JobRow, message: &str) {
-        eprintln!("[{:>7.1} s] {}/{}: {message}", self.started.elapsed().as_secs_f64(), self.study.name, job.name);
+        eprintln!(
+            "[{:>7.1} s] {}/{}: {message}",
+            self.started.elapsed().as_secs_f64(),
+            self.study.name,
+            job.name
+        );
     }
 
     fn report_success(&self, job: &JobRow, results: &JobResults) {
         let shown: Vec<String> = results
             .responses
             .iter()
-            .filter(|(name, _)| self.study.responses.is_empty() || self.study.responses.contains(name))
+            .filter(|(name, _)| {
+                self.study.responses.is_empty() || self.study.responses.contains(name)
+            })
             .filter(|(name, _)| !name.starts_with("solver_"))
             .map(|(name, value)| format!("{name} = {value:.4}"))
             .collect();
         let took = now_s() - job.started_at.unwrap_or_else(now_s);
-        self.report(job, &format!("succeeded in {took:.1} s: {}", shown.join(", ")));
+        self.report(
+            job,
+            &format!("succeeded in {took:.1} s: {}", shown.join(", ")),
+        );
     }
 }
 
 /// Responses and series of a run from what its solver observed.
 pub fn results_of(observations: &Observations) -> JobResults {
-    let responses = DischargeResponses::compute(&observations.crossings, &ResponseOptions::default());
+    let responses =
+        DischargeResponses::compute(&observations.crossings, &ResponseOptions::default());
     let mut named = responses.named();
     if let Some(loop_time) = observations.solver_loop_time_s {
         named.push(("solver_loop_time".to_string(), loop_time));
@@ -332,11 +412,25 @@ pub fn results_of(observations: &Observations) -> JobResults {
         }
     }
     let mut series = vec![
-        ("mass_flow_rate".to_string(), mass_flow_series(&observations.crossings, MASS_FLOW_BIN_S)),
-        ("discharged_mass".to_string(), cumulative_mass_series(&observations.crossings)),
+        (
+            "mass_flow_rate".to_string(),
+            mass_flow_series(&observations.crossings, MASS_FLOW_BIN_S),
+        ),
+        (
+            "discharged_mass".to_string(),
+            cumulative_mass_series(&observations.crossings),
+        ),
     ];
-    series.extend(observations.series.iter().map(|s| (s.name.clone(), s.points.clone())));
-    JobResults { responses: named, series }
+    series.extend(
+        observations
+            .series
+            .iter()
+            .map(|s| (s.name.clone(), s.points.clone())),
+    );
+    JobResults {
+        responses: named,
+        series,
+    }
 }
 
 /// Empties a run directory for a fresh attempt, keeping the attempts log.
@@ -359,7 +453,12 @@ fn clean_run_dir(run_dir: &Path) -> std::io::Result<()> {
 /// What a user needs to see of a failed run: the solver's `ERROR` lines, or else the
 /// last lines of its error output, standard output or log.
 pub fn failure_summary(run_dir: &Path, log_file: &str) -> String {
-    let read = |file: &str| std::fs::read_to_string(run_dir.join(file)).unwrap_or_default();
+    // Solvers may print bytes that are not UTF-8; a reason must survive them.
+    let read = |file: &str| {
+        std::fs::read(run_dir.join(file))
+            .map(|bytes| String::from_utf8_lossy(&bytes).into_owned())
+            .unwrap_or_default()
+    };
     let log = read(log_file);
     let stdout = read(STDOUT_FILE);
     let errors: Vec<&str> = log
@@ -370,7 +469,11 @@ pub fn failure_summary(run_dir: &Path, log_file: &str) -> String {
     if let Some(first) = errors.first() {
         return format!("it reported: {}", first.trim());
     }
-    for (name, text) in [(STDERR_FILE, read(STDERR_FILE)), (log_file, log), (STDOUT_FILE, stdout)] {
+    for (name, text) in [
+        (STDERR_FILE, read(STDERR_FILE)),
+        (log_file, log),
+        (STDOUT_FILE, stdout),
+    ] {
         let tail: Vec<&str> = text.lines().filter(|l| !l.trim().is_empty()).collect();
         if !tail.is_empty() {
             let last = &tail[tail.len().saturating_sub(5)..];

@@ -62,7 +62,10 @@ pub async fn open_all(dirs: &[PathBuf]) -> Result<Vec<(PathBuf, Store)>, StoreEr
 }
 
 /// The store and row of the study called `name` among `dirs`.
-pub async fn find_study(dirs: &[PathBuf], name: &str) -> Result<Option<(Store, StudyRow)>, StoreError> {
+pub async fn find_study(
+    dirs: &[PathBuf],
+    name: &str,
+) -> Result<Option<(Store, StudyRow)>, StoreError> {
     for (_, store) in open_all(dirs).await? {
         if let Some(row) = store.study_by_name(name).await? {
             return Ok(Some((store, row)));

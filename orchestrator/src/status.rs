@@ -43,7 +43,12 @@ impl StudyDetail {
     /// Reads a study's detail from the store.
     pub async fn load(store: &Store, study: StudyRow) -> Result<StudyDetail, StoreError> {
         let factors = store.factors(study.id).await?;
-        let points: BTreeMap<i64, _> = store.points(study.id).await?.into_iter().map(|p| (p.id, p)).collect();
+        let points: BTreeMap<i64, _> = store
+            .points(study.id)
+            .await?
+            .into_iter()
+            .map(|p| (p.id, p))
+            .collect();
         let mut responses = store.responses(study.id).await?;
         let jobs = store
             .jobs(study.id)
@@ -60,7 +65,11 @@ impl StudyDetail {
                 }
             })
             .collect();
-        Ok(StudyDetail { study, factors, jobs })
+        Ok(StudyDetail {
+            study,
+            factors,
+            jobs,
+        })
     }
 
     /// Jobs per state.
@@ -72,12 +81,22 @@ impl StudyDetail {
     /// The per-job table, showing `responses` (or a default set when empty).
     pub fn table(&self, responses: &[String]) -> String {
         let shown: Vec<String> = if responses.is_empty() {
-            ["discharge_rate", "segregation_ratio"].iter().map(|s| s.to_string()).collect()
+            ["discharge_rate", "segregation_ratio"]
+                .iter()
+                .map(|s| s.to_string())
+                .collect()
         } else {
             responses.to_vec()
         };
-        let mut header: Vec<String> = ["JOB", "STATE", "TRIES", "HANDLE"].iter().map(|s| s.to_string()).collect();
-        header.extend(self.factors.iter().map(|f| format!("{} [{}]", f.name, f.unit)));
+        let mut header: Vec<String> = ["JOB", "STATE", "TRIES", "HANDLE"]
+            .iter()
+            .map(|s| s.to_string())
+            .collect();
+        header.extend(
+            self.factors
+                .iter()
+                .map(|f| format!("{} [{}]", f.name, f.unit)),
+        );
         header.extend(shown.iter().cloned());
         header.push("ERROR".into());
         let mut rows = vec![header];
@@ -91,7 +110,11 @@ impl StudyDetail {
             ];
             row.extend(detail.natural.iter().map(|v| format!("{v:.6}")));
             row.extend(shown.iter().map(|name| {
-                detail.responses.get(name).map(|v| format!("{v:.5}")).unwrap_or_else(|| "-".into())
+                detail
+                    .responses
+                    .get(name)
+                    .map(|v| format!("{v:.5}"))
+                    .unwrap_or_else(|| "-".into())
             }));
             let error = job.error.clone().unwrap_or_default();
             row.push(if error.chars().count() > 100 {
@@ -102,7 +125,10 @@ impl StudyDetail {
             rows.push(row);
         }
         let counts = self.counts();
-        let summary: Vec<String> = counts.iter().map(|(state, n)| format!("{n} {state}")).collect();
+        let summary: Vec<String> = counts
+            .iter()
+            .map(|(state, n)| format!("{n} {state}"))
+            .collect();
         format!(
             "study {} ({}, {}): {} jobs: {}\n{}",
             self.study.name,
@@ -116,10 +142,18 @@ impl StudyDetail {
 
     /// The machine-readable form.
     pub fn json(&self, project_dir: &Path) -> Value {
-        let counts: BTreeMap<&str, usize> = self.counts().iter().map(|(s, n)| (s.as_str(), *n)).collect();
+        let counts: BTreeMap<&str, usize> = self
+            .counts()
+            .iter()
+            .map(|(s, n)| (s.as_str(), *n))
+            .collect();
         let names: Vec<&str> = self.factors.iter().map(|f| f.name.as_str()).collect();
         let by_factor = |values: &[f64]| -> BTreeMap<String, f64> {
-            names.iter().zip(values).map(|(n, v)| (n.to_string(), *v)).collect()
+            names
+                .iter()
+                .zip(values)
+                .map(|(n, v)| (n.to_string(), *v))
+                .collect()
         };
         json!({
             "schema": JSON_SCHEMA,
@@ -157,11 +191,25 @@ impl StudyDetail {
 }
 
 /// One line per study, for `orch status` without a study.
-pub async fn overview(stores: &[(std::path::PathBuf, Store)], as_json: bool) -> Result<String, StoreError> {
-    let mut rows = vec![["STUDY", "SOLVER", "STATE", "JOBS", "PENDING", "RUNNING", "SUCCEEDED", "FAILED", "CANCELLED", "PROJECT"]
-        .iter()
-        .map(|s| s.to_string())
-        .collect::<Vec<_>>()];
+pub async fn overview(
+    stores: &[(std::path::PathBuf, Store)],
+    as_json: bool,
+) -> Result<String, StoreError> {
+    let mut rows = vec![[
+        "STUDY",
+        "SOLVER",
+        "STATE",
+        "JOBS",
+        "PENDING",
+        "RUNNING",
+        "SUCCEEDED",
+        "FAILED",
+        "CANCELLED",
+        "PROJECT",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect::<Vec<_>>()];
     let mut studies = Vec::new();
     for (dir, store) in stores {
         for study in store.studies().await? {
@@ -181,7 +229,8 @@ pub async fn overview(stores: &[(std::path::PathBuf, Store)], as_json: bool) -> 
                 n(JobState::Cancelled).to_string(),
                 dir.display().to_string(),
             ]);
-            let by_state: BTreeMap<&str, usize> = counts.iter().map(|(s, c)| (s.as_str(), *c)).collect();
+            let by_state: BTreeMap<&str, usize> =
+                counts.iter().map(|(s, c)| (s.as_str(), *c)).collect();
             studies.push(json!({
                 "name": study.name,
                 "solver": study.solver,
@@ -193,7 +242,10 @@ pub async fn overview(stores: &[(std::path::PathBuf, Store)], as_json: bool) -> 
         }
     }
     if as_json {
-        return Ok(serde_json::to_string_pretty(&json!({"schema": JSON_SCHEMA, "studies": studies})).expect("JSON of plain values"));
+        return Ok(serde_json::to_string_pretty(
+            &json!({"schema": JSON_SCHEMA, "studies": studies}),
+        )
+        .expect("JSON of plain values"));
     }
     if rows.len() == 1 {
         return Ok("no studies yet: submit one with `orch submit STUDY.yaml`\n".into());
@@ -205,7 +257,13 @@ pub async fn overview(stores: &[(std::path::PathBuf, Store)], as_json: bool) -> 
 fn table(rows: &[Vec<String>]) -> String {
     let columns = rows.iter().map(|r| r.len()).max().unwrap_or(0);
     let widths: Vec<usize> = (0..columns)
-        .map(|c| rows.iter().filter_map(|r| r.get(c)).map(|s| s.chars().count()).max().unwrap_or(0))
+        .map(|c| {
+            rows.iter()
+                .filter_map(|r| r.get(c))
+                .map(|s| s.chars().count())
+                .max()
+                .unwrap_or(0)
+        })
         .collect();
     let mut out = String::new();
     for row in rows {

@@ -1,1 +1,13 @@
-fn main() {}
+//! End-to-end tests of the `orch` binary with real solvers.
+//!
+//! They drive the built `orch` (target/debug/orch, or `ORCH_BIN`) as a user would.
+//! Tests that need LIGGGHTS fail when `CI=true` and it is missing, and say they
+//! skipped otherwise. Solver tests take a lock so that they do not compete for the
+//! machine's cores.
+
+mod architecture;
+mod crash_resume;
+mod faults;
+mod real_liggghts;
+mod study_files;
+mod support;

@@ -15,7 +15,10 @@ use nix::sys::signal::Signal;
 use tokio::process::{Child, Command};
 
 use super::process::{self, ProcessHandle};
-use super::{read_exit_status, JobStatus, LaunchError, LaunchSpec, ATTEMPTS_LOG, EXIT_STATUS_FILE, STDERR_FILE, STDOUT_FILE};
+use super::{
+    read_exit_status, JobStatus, LaunchError, LaunchSpec, ATTEMPTS_LOG, EXIT_STATUS_FILE,
+    STDERR_FILE, STDOUT_FILE,
+};
 
 /// How long a terminated job has between SIGTERM and SIGKILL.
 pub const TERMINATION_GRACE: Duration = Duration::from_secs(3);
@@ -68,7 +71,9 @@ impl LocalExecutor {
             .spawn()
             .map_err(launch_error)?;
         let pid = child.id().map(i64::from).ok_or_else(|| {
-            launch_error(std::io::Error::other("the job exited before its pid was read"))
+            launch_error(std::io::Error::other(
+                "the job exited before its pid was read",
+            ))
         })?;
         // The kernel knows the start time as soon as the process exists.
         let started_ticks = process::start_ticks(pid).unwrap_or(0);
@@ -98,7 +103,8 @@ impl LocalExecutor {
     pub fn terminate(&mut self, handle: ProcessHandle) {
         if handle.is_alive() || self.children.contains_key(&handle.pid) {
             process::signal_group(handle.pid, Signal::SIGTERM);
-            self.dying.push((handle.pid, Instant::now() + TERMINATION_GRACE));
+            self.dying
+                .push((handle.pid, Instant::now() + TERMINATION_GRACE));
         }
     }
 
@@ -123,6 +129,32 @@ impl LocalExecutor {
     pub fn terminating(&self) -> usize {
         self.dying.len()
     }
+}
+
+/// Kills a job that an `orch` launched in `run_dir` but stopped before recording its
+/// handle (the window between spawn and the store's update). The wrapper's last
+/// `start <pid>` line in the attempts log names it; it counts as that job only while
+/// its working directory is `run_dir`. Returns the pid it killed.
+pub fn kill_unrecorded(run_dir: &std::path::Path) -> Option<i64> {
+    let log = std::fs::read_to_string(run_dir.join(ATTEMPTS_LOG)).ok()?;
+    let pid: i64 = log
+        .lines()
+        .last()?
+        .strip_prefix("start ")?
+        .split_whitespace()
+        .next()?
+        .parse()
+        .ok()?;
+    let cwd = std::fs::read_link(format!("/proc/{pid}/cwd")).ok()?;
+    if cwd != std::fs::canonicalize(run_dir).ok()? {
+        return None;
+    }
+    process::signal_group(pid, Signal::SIGKILL);
+    let deadline = Instant::now() + Duration::from_secs(5);
+    while process::group_exists(pid) && Instant::now() < deadline {
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    Some(pid)
 }
 
 #[cfg(test)]
@@ -160,12 +192,26 @@ mod tests {
     async fn exit_status_and_output_land_in_the_run_directory() {
         let dir = tempfile::tempdir().unwrap();
         let mut executor = LocalExecutor::new();
-        let handle = executor.launch(&spec(dir.path(), "echo out; echo err >&2; exit 3")).unwrap();
-        assert_eq!(wait(&mut executor, handle, dir.path()).await, JobStatus::Exited(3));
-        assert_eq!(std::fs::read_to_string(dir.path().join(STDOUT_FILE)).unwrap(), "out\n");
-        assert_eq!(std::fs::read_to_string(dir.path().join(STDERR_FILE)).unwrap(), "err\n");
+        let handle = executor
+            .launch(&spec(dir.path(), "echo out; echo err >&2; exit 3"))
+            .unwrap();
+        assert_eq!(
+            wait(&mut executor, handle, dir.path()).await,
+            JobStatus::Exited(3)
+        );
+        assert_eq!(
+            std::fs::read_to_string(dir.path().join(STDOUT_FILE)).unwrap(),
+            "out\n"
+        );
+        assert_eq!(
+            std::fs::read_to_string(dir.path().join(STDERR_FILE)).unwrap(),
+            "err\n"
+        );
         let attempts = std::fs::read_to_string(dir.path().join(ATTEMPTS_LOG)).unwrap();
-        assert!(attempts.lines().last().unwrap().starts_with("end 3 "), "{attempts}");
+        assert!(
+            attempts.lines().last().unwrap().starts_with("end 3 "),
+            "{attempts}"
+        );
     }
 
     #[tokio::test]
@@ -174,7 +220,10 @@ mod tests {
         let mut executor = LocalExecutor::new();
         // A grandchild that ignores SIGTERM and would outlive its parent.
         let handle = executor
-            .launch(&spec(dir.path(), "sh -c 'trap \"\" TERM; sleep 60' & sleep 60"))
+            .launch(&spec(
+                dir.path(),
+                "sh -c 'trap \"\" TERM; sleep 60' & sleep 60",
+            ))
             .unwrap();
         tokio::time::sleep(Duration::from_millis(200)).await;
         executor.terminate(handle);
@@ -189,12 +238,30 @@ mod tests {
     }
 
     #[tokio::test]
+    async fn an_unrecorded_job_is_found_by_its_attempts_log_and_killed() {
+        let dir = tempfile::tempdir().unwrap();
+        let handle = LocalExecutor::new()
+            .launch(&spec(dir.path(), "sleep 30"))
+            .unwrap();
+        tokio::time::sleep(Duration::from_millis(200)).await;
+        assert_eq!(kill_unrecorded(dir.path()), Some(handle.pid));
+        assert!(!process::group_exists(handle.pid));
+        // Nothing runs there any more: nothing to kill.
+        assert_eq!(kill_unrecorded(dir.path()), None);
+    }
+
+    #[tokio::test]
     async fn a_job_started_by_another_executor_is_followed_by_handle() {
         let dir = tempfile::tempdir().unwrap();
-        let handle = LocalExecutor::new().launch(&spec(dir.path(), "sleep 0.3; exit 0")).unwrap();
+        let handle = LocalExecutor::new()
+            .launch(&spec(dir.path(), "sleep 0.3; exit 0"))
+            .unwrap();
         // A fresh executor, as after `orch` was killed and resumed.
         let mut fresh = LocalExecutor::new();
         assert_eq!(fresh.poll(handle, dir.path()), JobStatus::Running);
-        assert_eq!(wait(&mut fresh, handle, dir.path()).await, JobStatus::Exited(0));
+        assert_eq!(
+            wait(&mut fresh, handle, dir.path()).await,
+            JobStatus::Exited(0)
+        );
     }
 }

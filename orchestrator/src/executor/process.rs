@@ -83,7 +83,10 @@ mod tests {
         let (pid, ticks) = current();
         assert!(is_alive(pid, ticks));
         assert!(!is_alive(pid, ticks + 1));
-        let handle = ProcessHandle { pid, started_ticks: ticks };
+        let handle = ProcessHandle {
+            pid,
+            started_ticks: ticks,
+        };
         assert_eq!(ProcessHandle::parse(&handle.to_string()), Some(handle));
     }
 }

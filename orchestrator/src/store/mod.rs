@@ -160,7 +160,11 @@ impl Store {
         runs_root: &Path,
     ) -> Result<i64, StoreError> {
         let now = now_s();
-        let mut tx = self.pool.begin().await.map_err(query_error("start a transaction"))?;
+        let mut tx = self
+            .pool
+            .begin()
+            .await
+            .map_err(query_error("start a transaction"))?;
         let study_id: i64 = sqlx::query(
             "INSERT INTO studies (name, solver, file_path, file_text, file_sha256, template_name,
                                   template_text, state, created_at, updated_at)
@@ -192,14 +196,17 @@ impl Store {
                 .map_err(query_error("record a factor"))?;
         }
         for (idx, point) in study.points.iter().enumerate() {
-            let point_id: i64 = sqlx::query("INSERT INTO points (study_id, round, idx) VALUES (?, 0, ?) RETURNING id")
-                .bind(study_id)
-                .bind(idx as i64)
-                .fetch_one(&mut *tx)
-                .await
-                .map_err(query_error("record a design point"))?
-                .get(0);
-            for (factor_idx, (coded, natural)) in point.coded.iter().zip(&point.natural).enumerate() {
+            let point_id: i64 = sqlx::query(
+                "INSERT INTO points (study_id, round, idx) VALUES (?, 0, ?) RETURNING id",
+            )
+            .bind(study_id)
+            .bind(idx as i64)
+            .fetch_one(&mut *tx)
+            .await
+            .map_err(query_error("record a design point"))?
+            .get(0);
+            for (factor_idx, (coded, natural)) in point.coded.iter().zip(&point.natural).enumerate()
+            {
                 sqlx::query("INSERT INTO point_values (point_id, factor_idx, coded, natural) VALUES (?, ?, ?, ?)")
                     .bind(point_id)
                     .bind(factor_idx as i64)
@@ -227,7 +234,9 @@ impl Store {
                 .map_err(query_error("record a job"))?;
             }
         }
-        tx.commit().await.map_err(query_error("commit the new study"))?;
+        tx.commit()
+            .await
+            .map_err(query_error("commit the new study"))?;
         Ok(study_id)
     }
 
@@ -249,7 +258,11 @@ impl Store {
     }
 
     /// Sets a study's state.
-    pub async fn set_study_state(&self, study_id: i64, state: StudyState) -> Result<(), StoreError> {
+    pub async fn set_study_state(
+        &self,
+        study_id: i64,
+        state: StudyState,
+    ) -> Result<(), StoreError> {
         sqlx::query("UPDATE studies SET state = ?, updated_at = ? WHERE id = ?")
             .bind(state.as_str())
             .bind(now_s())
@@ -269,7 +282,11 @@ impl Store {
         started: i64,
         is_alive: impl Fn(i64, i64) -> bool,
     ) -> Result<(), StoreError> {
-        let mut tx = self.pool.begin().await.map_err(query_error("start a transaction"))?;
+        let mut tx = self
+            .pool
+            .begin()
+            .await
+            .map_err(query_error("start a transaction"))?;
         let holder: (Option<i64>, Option<i64>) =
             sqlx::query_as("SELECT driver_pid, driver_started FROM studies WHERE id = ?")
                 .bind(study.id)
@@ -375,7 +392,10 @@ impl Store {
     }
 
     /// Responses of every job of a study, by job id then name.
-    pub async fn responses(&self, study_id: i64) -> Result<BTreeMap<i64, BTreeMap<String, f64>>, StoreError> {
+    pub async fn responses(
+        &self,
+        study_id: i64,
+    ) -> Result<BTreeMap<i64, BTreeMap<String, f64>>, StoreError> {
         let rows: Vec<(i64, String, f64)> = sqlx::query_as(
             "SELECT r.job_id, r.name, r.value FROM responses r JOIN jobs j ON j.id = r.job_id
              WHERE j.study_id = ? ORDER BY r.job_id, r.name",
@@ -432,7 +452,11 @@ impl Store {
             .map_err(query_error("read a job's state"))?;
         let stale = || StoreError::Stale {
             job: job_id,
-            expected: from.iter().map(|s| s.as_str()).collect::<Vec<_>>().join(" or "),
+            expected: from
+                .iter()
+                .map(|s| s.as_str())
+                .collect::<Vec<_>>()
+                .join(" or "),
         };
         let current = current.ok_or_else(stale)?;
         if !from.iter().any(|s| s.as_str() == current) {
@@ -480,19 +504,38 @@ impl Store {
         binds: Vec<Bind>,
         note: Option<&str>,
     ) -> Result<(), StoreError> {
-        let mut tx = self.pool.begin().await.map_err(query_error("start a transaction"))?;
-        self.transition(&mut tx, job_id, from, to, set, binds, note).await?;
-        tx.commit().await.map_err(query_error("commit a job transition"))
+        let mut tx = self
+            .pool
+            .begin()
+            .await
+            .map_err(query_error("start a transaction"))?;
+        self.transition(&mut tx, job_id, from, to, set, binds, note)
+            .await?;
+        tx.commit()
+            .await
+            .map_err(query_error("commit a job transition"))
     }
 
     /// pending → rendered.
     pub async fn mark_rendered(&self, job_id: i64) -> Result<(), StoreError> {
-        self.transition_alone(job_id, &[JobState::Pending], JobState::Rendered, "", vec![], None)
-            .await
+        self.transition_alone(
+            job_id,
+            &[JobState::Pending],
+            JobState::Rendered,
+            "",
+            vec![],
+            None,
+        )
+        .await
     }
 
     /// rendered → running with the executor's handle; counts an attempt.
-    pub async fn mark_running(&self, job_id: i64, handle: &str, started_at: f64) -> Result<(), StoreError> {
+    pub async fn mark_running(
+        &self,
+        job_id: i64,
+        handle: &str,
+        started_at: f64,
+    ) -> Result<(), StoreError> {
         self.transition_alone(
             job_id,
             &[JobState::Rendered],
@@ -505,8 +548,17 @@ impl Store {
     }
 
     /// running → succeeded, replacing the job's responses and series.
-    pub async fn mark_succeeded(&self, job_id: i64, exit_code: i32, results: &JobResults) -> Result<(), StoreError> {
-        let mut tx = self.pool.begin().await.map_err(query_error("start a transaction"))?;
+    pub async fn mark_succeeded(
+        &self,
+        job_id: i64,
+        exit_code: i32,
+        results: &JobResults,
+    ) -> Result<(), StoreError> {
+        let mut tx = self
+            .pool
+            .begin()
+            .await
+            .map_err(query_error("start a transaction"))?;
         self.transition(
             &mut tx,
             job_id,
@@ -545,11 +597,18 @@ impl Store {
                     .map_err(query_error("record a time series"))?;
             }
         }
-        tx.commit().await.map_err(query_error("commit a job's results"))
+        tx.commit()
+            .await
+            .map_err(query_error("commit a job's results"))
     }
 
     /// pending, rendered or running → failed with the reason a user needs.
-    pub async fn mark_failed(&self, job_id: i64, exit_code: Option<i32>, error: &str) -> Result<(), StoreError> {
+    pub async fn mark_failed(
+        &self,
+        job_id: i64,
+        exit_code: Option<i32>,
+        error: &str,
+    ) -> Result<(), StoreError> {
         self.transition_alone(
             job_id,
             &[JobState::Pending, JobState::Rendered, JobState::Running],
@@ -567,7 +626,12 @@ impl Store {
 
     /// rendered, submitted or running → pending, to run again. `refund_attempt` gives
     /// back the attempt (an interruption by the user is not the job's failure).
-    pub async fn requeue(&self, job_id: i64, note: &str, refund_attempt: bool) -> Result<(), StoreError> {
+    pub async fn requeue(
+        &self,
+        job_id: i64,
+        note: &str,
+        refund_attempt: bool,
+    ) -> Result<(), StoreError> {
         let set = if refund_attempt {
             "executor_handle = NULL, attempts = MAX(attempts - 1, 0), error = ?"
         } else {
@@ -588,7 +652,12 @@ impl Store {
     pub async fn mark_cancelled(&self, job_id: i64, note: &str) -> Result<(), StoreError> {
         self.transition_alone(
             job_id,
-            &[JobState::Pending, JobState::Rendered, JobState::Submitted, JobState::Running],
+            &[
+                JobState::Pending,
+                JobState::Rendered,
+                JobState::Submitted,
+                JobState::Running,
+            ],
             JobState::Cancelled,
             "finished_at = ?, error = ?",
             vec![Bind::Real(now_s()), Bind::Text(note.to_string())],

@@ -50,7 +50,10 @@ impl JobState {
 
     /// True for succeeded, failed and cancelled.
     pub fn is_final(self) -> bool {
-        matches!(self, JobState::Succeeded | JobState::Failed | JobState::Cancelled)
+        matches!(
+            self,
+            JobState::Succeeded | JobState::Failed | JobState::Cancelled
+        )
     }
 }
 
@@ -98,10 +101,15 @@ impl StudyState {
 impl FromStr for StudyState {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, Self::Err> {
-        [StudyState::Active, StudyState::Interrupted, StudyState::Cancelled, StudyState::Finished]
-            .into_iter()
-            .find(|state| state.as_str() == s)
-            .ok_or_else(|| format!("unknown study state `{s}`"))
+        [
+            StudyState::Active,
+            StudyState::Interrupted,
+            StudyState::Cancelled,
+            StudyState::Finished,
+        ]
+        .into_iter()
+        .find(|state| state.as_str() == s)
+        .ok_or_else(|| format!("unknown study state `{s}`"))
     }
 }
 

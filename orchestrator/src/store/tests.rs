@@ -31,7 +31,10 @@ async fn a_study_is_recorded_with_points_and_jobs() {
     assert_eq!(jobs.len(), 18);
     assert!(jobs.iter().all(|j| j.state() == JobState::Pending));
     assert_eq!(jobs[1].name, "p000r1");
-    assert_eq!(Path::new(&jobs[1].run_dir), dir.path().join("runs/small/p000r1"));
+    assert_eq!(
+        Path::new(&jobs[1].run_dir),
+        dir.path().join("runs/small/p000r1")
+    );
     let points = store.points(id).await.unwrap();
     assert_eq!(points.len(), 9);
     assert_eq!(points[0].coded, vec![-1.0, -1.0]);
@@ -41,7 +44,10 @@ async fn a_study_is_recorded_with_points_and_jobs() {
     assert_eq!(row.state(), StudyState::Active);
     // The same name cannot be recorded twice.
     let study = Study::from_text(Path::new("small.yaml"), STUDY, None).unwrap();
-    assert!(store.insert_study(&study, Path::new("small.yaml"), dir.path()).await.is_err());
+    assert!(store
+        .insert_study(&study, Path::new("small.yaml"), dir.path())
+        .await
+        .is_err());
     assert_eq!(store.jobs(id).await.unwrap().len(), 18);
 }
 
@@ -57,10 +63,25 @@ async fn a_job_moves_through_its_states_and_keeps_its_results() {
     };
     store.mark_succeeded(job, 0, &results).await.unwrap();
     let row = store.job(job).await.unwrap();
-    assert_eq!((row.state(), row.attempts, row.exit_code), (JobState::Succeeded, 1, Some(0)));
-    assert_eq!(store.responses(id).await.unwrap()[&job]["discharge_rate"], 0.15);
-    assert_eq!(store.series(job, "mass_flow_rate").await.unwrap(), vec![(0.1, 0.2), (0.2, 0.3)]);
-    assert_eq!(store.transitions_to(job, JobState::Succeeded).await.unwrap(), 1);
+    assert_eq!(
+        (row.state(), row.attempts, row.exit_code),
+        (JobState::Succeeded, 1, Some(0))
+    );
+    assert_eq!(
+        store.responses(id).await.unwrap()[&job]["discharge_rate"],
+        0.15
+    );
+    assert_eq!(
+        store.series(job, "mass_flow_rate").await.unwrap(),
+        vec![(0.1, 0.2), (0.2, 0.3)]
+    );
+    assert_eq!(
+        store
+            .transitions_to(job, JobState::Succeeded)
+            .await
+            .unwrap(),
+        1
+    );
 }
 
 #[tokio::test]
@@ -91,9 +112,18 @@ async fn only_one_live_driver_may_claim_a_study() {
     let (_dir, store, id) = store_with_study().await;
     let study = store.study_by_name("small").await.unwrap().unwrap();
     assert_eq!(study.id, id);
-    store.claim_driver(&study, 100, 1, |_, _| true).await.unwrap();
-    let busy = store.claim_driver(&study, 200, 1, |_, _| true).await.unwrap_err();
+    store
+        .claim_driver(&study, 100, 1, |_, _| true)
+        .await
+        .unwrap();
+    let busy = store
+        .claim_driver(&study, 200, 1, |_, _| true)
+        .await
+        .unwrap_err();
     assert!(matches!(busy, StoreError::Busy { pid: 100, .. }));
     // A dead holder is taken over.
-    store.claim_driver(&study, 200, 1, |_, _| false).await.unwrap();
+    store
+        .claim_driver(&study, 200, 1, |_, _| false)
+        .await
+        .unwrap();
 }

@@ -86,7 +86,9 @@ impl<'de> Deserialize<'de> for TimeLimit {
         impl Visitor<'_> for TimeLimitVisitor {
             type Value = TimeLimit;
             fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
-                f.write_str("a positive number of seconds or a duration such as `90s`, `10min`, `2h`")
+                f.write_str(
+                    "a positive number of seconds or a duration such as `90s`, `10min`, `2h`",
+                )
             }
             fn visit_u64<E: de::Error>(self, v: u64) -> Result<TimeLimit, E> {
                 Ok(TimeLimit(Duration::from_secs(v)))

@@ -42,7 +42,10 @@ impl Walker {
         match self.stack.last() {
             None => Some(String::new()),
             Some(Frame::Mapping { key: None, .. }) => None,
-            Some(Frame::Mapping { key: Some(key), path }) => Some(join(path, key)),
+            Some(Frame::Mapping {
+                key: Some(key),
+                path,
+            }) => Some(join(path, key)),
             Some(Frame::Sequence { index, path }) => Some(format!("{path}[{index}]")),
         }
     }
@@ -88,11 +91,12 @@ impl MarkedEventReceiver for Walker {
             Event::MappingStart(..) | Event::SequenceStart(..) => {
                 let path = self.next_value_path().unwrap_or_default();
                 self.found.insert(path.clone(), location(mark));
-                self.stack.push(if matches!(event, Event::MappingStart(..)) {
-                    Frame::Mapping { key: None, path }
-                } else {
-                    Frame::Sequence { index: 0, path }
-                });
+                self.stack
+                    .push(if matches!(event, Event::MappingStart(..)) {
+                        Frame::Mapping { key: None, path }
+                    } else {
+                        Frame::Sequence { index: 0, path }
+                    });
             }
             Event::MappingEnd | Event::SequenceEnd => {
                 self.stack.pop();
@@ -112,8 +116,20 @@ mod tests {
         let text = "name: a\nfactors:\n  - name: x\n    min: 1\n    max: 2\n  - {name: y, min: 3, max: 4}\n";
         let found = value_locations(text);
         assert_eq!(found["name"], Location { line: 1, column: 7 });
-        assert_eq!(found["factors[0].max"], Location { line: 5, column: 10 });
-        assert_eq!(found["factors[1].min"], Location { line: 6, column: 20 });
+        assert_eq!(
+            found["factors[0].max"],
+            Location {
+                line: 5,
+                column: 10
+            }
+        );
+        assert_eq!(
+            found["factors[1].min"],
+            Location {
+                line: 6,
+                column: 20
+            }
+        );
         assert_eq!(found["factors[1]"].line, 6);
     }
 }

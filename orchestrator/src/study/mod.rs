@@ -14,8 +14,8 @@ use orch_adapters::{adapter_for, Case, ResolvedParameters, SolverAdapter, SOLVER
 use orch_metamodel::{CentralCompositeAlpha, Design, DesignKind, FactorRange};
 use sha2::{Digest, Sha256};
 
-pub use file::{ExecutorKind, StudyFile};
 use file::{AlphaFile, DesignFile, DesignType, ExecutorFile};
+pub use file::{ExecutorKind, StudyFile};
 pub use locate::Location;
 
 /// A study file that cannot be used, with where and why.
@@ -217,7 +217,11 @@ impl Checker<'_> {
                     message = rest.to_string();
                 }
             }
-            let field = if field == "." { "(file)".to_string() } else { field };
+            let field = if field == "." {
+                "(file)".to_string()
+            } else {
+                field
+            };
             StudyError {
                 path: self.path.to_path_buf(),
                 location,
@@ -241,13 +245,20 @@ impl Checker<'_> {
         {
             return Err(self.error(
                 "name",
-                format!("expected letters, digits, `-` or `_` (it names folders), got `{}`", file.name),
+                format!(
+                    "expected letters, digits, `-` or `_` (it names folders), got `{}`",
+                    file.name
+                ),
             ));
         }
         let adapter = adapter_for(&file.solver).ok_or_else(|| {
             self.error(
                 "solver",
-                format!("unknown solver `{}`; expected one of: {}", file.solver, SOLVER_NAMES.join(", ")),
+                format!(
+                    "unknown solver `{}`; expected one of: {}",
+                    file.solver,
+                    SOLVER_NAMES.join(", ")
+                ),
             )
         })?;
         let template = match (stored_template, &file.template) {
@@ -283,12 +294,18 @@ impl Checker<'_> {
         for (i, factor) in file.factors.iter().enumerate() {
             let at = |field: &str| format!("factors[{i}].{field}");
             if file.factors[..i].iter().any(|f| f.name == factor.name) {
-                return Err(self.error(&at("name"), format!("factor `{}` is listed twice", factor.name)));
+                return Err(self.error(
+                    &at("name"),
+                    format!("factor `{}` is listed twice", factor.name),
+                ));
             }
             if file.fixed.contains_key(&factor.name) {
                 return Err(self.error(
                     &at("name"),
-                    format!("`{}` is both a factor and fixed; remove it from one of them", factor.name),
+                    format!(
+                        "`{}` is both a factor and fixed; remove it from one of them",
+                        factor.name
+                    ),
                 ));
             }
             if !(factor.min.is_finite() && factor.max.is_finite()) {
@@ -297,7 +314,10 @@ impl Checker<'_> {
             if factor.min >= factor.max {
                 return Err(self.error(
                     &at("max"),
-                    format!("expected max greater than min ({}), got {}", factor.min, factor.max),
+                    format!(
+                        "expected max greater than min ({}), got {}",
+                        factor.min, factor.max
+                    ),
                 ));
             }
             let unit = match spec_of(&factor.name) {
@@ -336,7 +356,10 @@ impl Checker<'_> {
             };
             factors.push(Factor {
                 name: factor.name.clone(),
-                range: FactorRange { min: factor.min, max: factor.max },
+                range: FactorRange {
+                    min: factor.min,
+                    max: factor.max,
+                },
                 unit,
             });
         }
@@ -346,7 +369,10 @@ impl Checker<'_> {
                 Some(spec) if !(spec.min..=spec.max).contains(value) => {
                     return Err(self.error(
                         &at,
-                        format!("`{name}` must lie within [{}, {}] {}, got {value}", spec.min, spec.max, spec.unit),
+                        format!(
+                            "`{name}` must lie within [{}, {}] {}, got {value}",
+                            spec.min, spec.max, spec.unit
+                        ),
                     ))
                 }
                 None if !custom_template => {
@@ -385,7 +411,10 @@ impl Checker<'_> {
             if !known_responses.contains(response) {
                 return Err(self.error(
                     &format!("responses[{i}]"),
-                    format!("unknown response `{response}`; expected one of: {}", known_responses.join(", ")),
+                    format!(
+                        "unknown response `{response}`; expected one of: {}",
+                        known_responses.join(", ")
+                    ),
                 ));
             }
         }
@@ -416,7 +445,10 @@ impl Checker<'_> {
                     .collect();
                 return Err(self.error(
                     "factors",
-                    format!("design point {index} ({}) cannot run: {e}", values.join(", ")),
+                    format!(
+                        "design point {index} ({}) cannot run: {e}",
+                        values.join(", ")
+                    ),
                 ));
             }
         }
@@ -426,7 +458,10 @@ impl Checker<'_> {
     fn design_kind(&self, design: &DesignFile, study_seed: u64) -> Result<DesignKind, StudyError> {
         let refuse = |field: &str, present: bool, kind: &str| {
             if present {
-                Err(self.error(&format!("design.{field}"), format!("`{field}` does not apply to a {kind} design")))
+                Err(self.error(
+                    &format!("design.{field}"),
+                    format!("`{field}` does not apply to a {kind} design"),
+                ))
             } else {
                 Ok(())
             }
@@ -434,10 +469,16 @@ impl Checker<'_> {
         Ok(match design.kind {
             DesignType::FullFactorial => {
                 refuse("alpha", design.alpha.is_some(), "full_factorial")?;
-                refuse("center_points", design.center_points.is_some(), "full_factorial")?;
+                refuse(
+                    "center_points",
+                    design.center_points.is_some(),
+                    "full_factorial",
+                )?;
                 refuse("samples", design.samples.is_some(), "full_factorial")?;
                 refuse("seed", design.seed.is_some(), "full_factorial")?;
-                DesignKind::FullFactorial { levels: design.levels.unwrap_or(3) }
+                DesignKind::FullFactorial {
+                    levels: design.levels.unwrap_or(3),
+                }
             }
             DesignType::CentralComposite => {
                 refuse("levels", design.levels.is_some(), "central_composite")?;
@@ -457,15 +498,24 @@ impl Checker<'_> {
                 refuse("alpha", design.alpha.is_some(), "box_behnken")?;
                 refuse("samples", design.samples.is_some(), "box_behnken")?;
                 refuse("seed", design.seed.is_some(), "box_behnken")?;
-                DesignKind::BoxBehnken { center_points: design.center_points.unwrap_or(1) }
+                DesignKind::BoxBehnken {
+                    center_points: design.center_points.unwrap_or(1),
+                }
             }
             DesignType::LatinHypercube => {
                 refuse("levels", design.levels.is_some(), "latin_hypercube")?;
                 refuse("alpha", design.alpha.is_some(), "latin_hypercube")?;
-                refuse("center_points", design.center_points.is_some(), "latin_hypercube")?;
-                let samples = design
-                    .samples
-                    .ok_or_else(|| self.error("design", "a latin_hypercube design needs `samples:` (number of runs)"))?;
+                refuse(
+                    "center_points",
+                    design.center_points.is_some(),
+                    "latin_hypercube",
+                )?;
+                let samples = design.samples.ok_or_else(|| {
+                    self.error(
+                        "design",
+                        "a latin_hypercube design needs `samples:` (number of runs)",
+                    )
+                })?;
                 DesignKind::LatinHypercube {
                     samples,
                     seed: design.seed.unwrap_or(study_seed),
@@ -480,8 +530,16 @@ impl Checker<'_> {
         executor: &ExecutorFile,
         adapter: &dyn SolverAdapter,
     ) -> Result<ExecutorConfig, StudyError> {
-        let cores = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
-        let per_job = adapter.command(&Case { parameters: Default::default(), seed: 0 }).cores.max(1);
+        let cores = std::thread::available_parallelism()
+            .map(|n| n.get())
+            .unwrap_or(1);
+        let per_job = adapter
+            .command(&Case {
+                parameters: Default::default(),
+                seed: 0,
+            })
+            .cores
+            .max(1);
         let max_parallel = match executor.max_parallel {
             Some(0) => return Err(self.error("executor.max_parallel", "expected at least 1")),
             Some(n) => n,
@@ -493,7 +551,10 @@ impl Checker<'_> {
             }
         }
         if executor.retries > 100 {
-            return Err(self.error("executor.retries", format!("expected at most 100, got {}", executor.retries)));
+            return Err(self.error(
+                "executor.retries",
+                format!("expected at most 100, got {}", executor.retries),
+            ));
         }
         Ok(ExecutorConfig {
             kind: executor.kind,

@@ -92,10 +92,15 @@ fn unknown_solver_is_refused() {
 
 #[test]
 fn missing_template_is_refused() {
-    let text = VALID.replace("solver: liggghts\n", "solver: liggghts\ntemplate: no/such.in.tera\n");
+    let text = VALID.replace(
+        "solver: liggghts\n",
+        "solver: liggghts\ntemplate: no/such.in.tera\n",
+    );
     let message = error(&text);
     assert!(
-        message.starts_with("jobs/study.yaml:3:11: template: cannot read the template jobs/no/such.in.tera: "),
+        message.starts_with(
+            "jobs/study.yaml:3:11: template: cannot read the template jobs/no/such.in.tera: "
+        ),
         "{message}"
     );
 }
@@ -114,7 +119,10 @@ fn unknown_parameter_and_out_of_range_values_are_refused() {
 
 #[test]
 fn design_fields_that_do_not_apply_are_refused() {
-    let text = VALID.replace("  alpha: orthogonal\n", "  alpha: orthogonal\n  levels: 3\n");
+    let text = VALID.replace(
+        "  alpha: orthogonal\n",
+        "  alpha: orthogonal\n  levels: 3\n",
+    );
     assert_eq!(
         error(&text),
         "jobs/study.yaml:16:11: design.levels: `levels` does not apply to a central_composite design"
@@ -128,14 +136,20 @@ fn impossible_design_points_are_refused_before_running() {
         "fixed:\n  valve_diameter: 0.040\n",
     );
     let message = error(&text);
-    assert!(message.starts_with("jobs/study.yaml:8:3: factors: design point 0 ("), "{message}");
+    assert!(
+        message.starts_with("jobs/study.yaml:8:3: factors: design point 0 ("),
+        "{message}"
+    );
     assert!(message.contains("does not fit"), "{message}");
 }
 
 #[test]
 fn syntax_errors_point_at_the_text() {
     let message = error("name: 'unterminated\n");
-    assert!(message.starts_with("jobs/study.yaml:2:1: name: found unexpected end of stream"), "{message}");
+    assert!(
+        message.starts_with("jobs/study.yaml:2:1: name: found unexpected end of stream"),
+        "{message}"
+    );
 }
 
 #[test]
@@ -148,6 +162,9 @@ fn latin_hypercube_needs_samples() {
         error(&text),
         "jobs/study.yaml:14:7: design: a latin_hypercube design needs `samples:` (number of runs)"
     );
-    let text = text.replace("  type: latin_hypercube\n", "  type: latin_hypercube\n  samples: 12\n  seed: 4\n");
+    let text = text.replace(
+        "  type: latin_hypercube\n",
+        "  type: latin_hypercube\n  samples: 12\n  seed: 4\n",
+    );
     assert_eq!(load(&text).unwrap().points.len(), 12);
 }

@@ -1,0 +1,134 @@
+//! Bad study files: refused with file, line, column and field; nothing is written.
+
+use crate::support::{text, Project};
+
+const GOOD: &str = "\
+name: tiny
+solver: liggghts
+factors:
+  - {name: outlet_diameter, min: 0.020, max: 0.028}
+design: {type: full_factorial, levels: 2}
+";
+
+/// Submits `study` and returns stderr, asserting exit code 2 and no project written.
+fn refused(study: &str) -> String {
+    let project = Project::new();
+    let file = project.write("study.yaml", study);
+    let output = project.run(&["submit", file.to_str().unwrap()]);
+    assert_eq!(output.status.code(), Some(2), "{}", text(&output.stderr));
+    assert!(
+        !project.project_dir().exists(),
+        "a refused study wrote {}",
+        project.project_dir().display()
+    );
+    text(&output.stderr)
+}
+
+#[test]
+fn every_kind_of_bad_study_file_is_refused_before_anything_is_written() {
+    let cases = [
+        (
+            GOOD.replace("levels: 2", "levels: 2, colour: red"),
+            "study.yaml:5:43: design.colour: unknown field `colour`",
+        ),
+        (
+            GOOD.replace("min: 0.020", "min: wide"),
+            "study.yaml:4:34: factors[0].min: invalid type: string \"wide\", expected f64",
+        ),
+        (
+            GOOD.replace("min: 0.020, max: 0.028", "min: 0.028, max: 0.020"),
+            "study.yaml:4:46: factors[0].max: expected max greater than min (0.028), got 0.02",
+        ),
+        (
+            GOOD.replace("solver: liggghts", "solver: edem"),
+            "study.yaml:2:9: solver: unknown solver `edem`; expected one of: liggghts",
+        ),
+        (
+            GOOD.replace(
+                "solver: liggghts\n",
+                "solver: liggghts\ntemplate: mine.tera\n",
+            ),
+            "study.yaml:3:11: template: cannot read the template",
+        ),
+    ];
+    for (study, expected) in cases {
+        let stderr = refused(&study);
+        assert!(
+            stderr.contains(expected),
+            "expected `{expected}` in:\n{stderr}"
+        );
+        assert!(stderr.contains("nothing was written"), "{stderr}");
+    }
+}
+
+#[test]
+fn a_missing_solver_is_refused_before_anything_is_written() {
+    let project = Project::new();
+    let file = project.write("study.yaml", GOOD);
+    let output = project
+        .orch(&["submit", file.to_str().unwrap()])
+        .env("PATH", project.dir.path())
+        .output()
+        .unwrap();
+    let stderr = text(&output.stderr);
+    assert_eq!(output.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("the liggghts solver `liggghts` is not installed"),
+        "{stderr}"
+    );
+    assert!(stderr.contains("apt-get install -y liggghts"), "{stderr}");
+    assert!(!project.project_dir().exists());
+}
+
+#[test]
+fn dry_run_prints_the_design_and_writes_nothing() {
+    let project = Project::new();
+    let file = project.write("study.yaml", GOOD);
+    let output = project.run(&["submit", "--dry-run", file.to_str().unwrap()]);
+    assert!(output.status.success(), "{}", text(&output.stderr));
+    let stdout = text(&output.stdout);
+    assert!(
+        stdout.starts_with("tiny: 2 design points × 1 replicates = 2 jobs on liggghts\n"),
+        "{stdout}"
+    );
+    assert!(!project.project_dir().exists());
+}
+
+#[test]
+fn status_and_logs_of_unknown_things_say_what_to_do() {
+    let project = Project::new();
+    let output = project.run(&["status", "nosuch"]);
+    assert_eq!(output.status.code(), Some(2));
+    assert!(
+        text(&output.stderr).contains("no study named `nosuch`"),
+        "{}",
+        text(&output.stderr)
+    );
+    let output = project.run(&["status"]);
+    assert!(output.status.success());
+    assert_eq!(
+        text(&output.stdout),
+        "no studies yet: submit one with `orch submit STUDY.yaml`\n"
+    );
+}
+
+#[test]
+fn every_study_in_jobs_validates() {
+    let jobs = crate::support::root().join("jobs");
+    let mut checked = 0;
+    for entry in std::fs::read_dir(&jobs).unwrap().flatten() {
+        let path = entry.path();
+        if path.extension().is_some_and(|e| e == "yaml") {
+            let project = Project::new();
+            let output = project.run(&["submit", "--dry-run", path.to_str().unwrap()]);
+            assert!(
+                output.status.success(),
+                "{}: {}",
+                path.display(),
+                text(&output.stderr)
+            );
+            checked += 1;
+        }
+    }
+    assert!(checked >= 2, "expected study files in {}", jobs.display());
+}

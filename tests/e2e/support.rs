@@ -1,0 +1,216 @@
+//! Helpers: find the binary, make a project, run `orch`, read its status and store.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::sync::{Mutex, MutexGuard};
+use std::time::{Duration, Instant, SystemTime};
+
+use serde_json::Value;
+
+/// The workspace root.
+pub fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .unwrap()
+        .to_path_buf()
+}
+
+fn newest_source(dir: &Path) -> SystemTime {
+    let mut newest = SystemTime::UNIX_EPOCH;
+    for entry in std::fs::read_dir(dir).into_iter().flatten().flatten() {
+        let path = entry.path();
+        let time = if path.is_dir() {
+            newest_source(&path)
+        } else {
+            entry
+                .metadata()
+                .and_then(|m| m.modified())
+                .unwrap_or(SystemTime::UNIX_EPOCH)
+        };
+        newest = newest.max(time);
+    }
+    newest
+}
+
+/// The `orch` binary under test; refuses one older than the sources.
+pub fn orch_bin() -> PathBuf {
+    if let Some(path) = std::env::var_os("ORCH_BIN") {
+        return PathBuf::from(path);
+    }
+    let target = std::env::var_os("CARGO_TARGET_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| root().join("target"));
+    let bin = target.join("debug/orch");
+    let built = std::fs::metadata(&bin)
+        .and_then(|m| m.modified())
+        .unwrap_or_else(|_| {
+            panic!(
+                "no orch binary at {}: build it with `cargo build --bin orch` (scripts/test does)",
+                bin.display()
+            )
+        });
+    for dir in [
+        "orchestrator/src",
+        "orchestrator/migrations",
+        "adapters/src",
+        "granular/src",
+        "metamodel/src",
+        "templates",
+    ] {
+        assert!(
+            newest_source(&root().join(dir)) <= built,
+            "the orch binary at {} is older than {dir}: rebuild it with `cargo build --bin orch` (scripts/test does)",
+            bin.display()
+        );
+    }
+    bin
+}
+
+/// True when LIGGGHTS is installed. Missing under CI=true is a failure, not a skip.
+pub fn require_liggghts() -> bool {
+    let found = std::env::var_os("PATH")
+        .map(|p| std::env::split_paths(&p).any(|d| d.join("liggghts").is_file()))
+        .unwrap_or(false);
+    if !found {
+        assert!(
+            std::env::var("CI").as_deref() != Ok("true"),
+            "LIGGGHTS is not installed but CI=true: scripts/test must install it (apt-get install -y liggghts)"
+        );
+        eprintln!("SKIPPED: LIGGGHTS is not installed (apt-get install -y liggghts); this test did not run");
+    }
+    found
+}
+
+static SOLVER_LOCK: Mutex<()> = Mutex::new(());
+
+/// Serialises tests that run solvers, so each gets the machine's cores.
+pub fn solver_lock() -> MutexGuard<'static, ()> {
+    SOLVER_LOCK
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner())
+}
+
+/// A temporary project directory and the files of one test.
+pub struct Project {
+    /// Holds study files and templates.
+    pub dir: tempfile::TempDir,
+}
+
+impl Project {
+    /// A fresh, empty project.
+    pub fn new() -> Project {
+        Project {
+            dir: tempfile::tempdir().unwrap(),
+        }
+    }
+
+    /// The project directory `orch` uses.
+    pub fn project_dir(&self) -> PathBuf {
+        self.dir.path().join(".orch")
+    }
+
+    /// Writes a file into the test directory and returns its path.
+    pub fn write(&self, name: &str, text: &str) -> PathBuf {
+        let path = self.dir.path().join(name);
+        std::fs::write(&path, text).unwrap();
+        path
+    }
+
+    /// `orch --project-dir <project> ARGS`, run in the test directory.
+    pub fn orch(&self, args: &[&str]) -> Command {
+        let mut command = Command::new(orch_bin());
+        command
+            .arg("--project-dir")
+            .arg(self.project_dir())
+            .args(args)
+            .current_dir(self.dir.path());
+        command
+    }
+
+    /// Runs `orch ARGS` to the end.
+    pub fn run(&self, args: &[&str]) -> Output {
+        self.orch(args).output().unwrap()
+    }
+
+    /// `orch status STUDY --json`.
+    pub fn status(&self, study: &str) -> Value {
+        let output = self.run(&["status", study, "--json"]);
+        assert!(
+            output.status.success(),
+            "orch status failed: {}",
+            text(&output.stderr)
+        );
+        serde_json::from_slice(&output.stdout).unwrap()
+    }
+
+    /// Polls `orch status STUDY --json` until `done` holds or `limit` passes.
+    pub fn wait_for(&self, study: &str, limit: Duration, done: impl Fn(&Value) -> bool) -> Value {
+        let deadline = Instant::now() + limit;
+        loop {
+            let output = self.run(&["status", study, "--json"]);
+            if output.status.success() {
+                let status: Value = serde_json::from_slice(&output.stdout).unwrap();
+                if done(&status) {
+                    return status;
+                }
+            }
+            assert!(
+                Instant::now() < deadline,
+                "gave up waiting for study {study} after {limit:?}"
+            );
+            std::thread::sleep(Duration::from_millis(200));
+        }
+    }
+
+    /// Rows of a query against the project's store.
+    pub fn query(&self, sql: &str) -> Vec<Vec<String>> {
+        let url = format!(
+            "sqlite://{}?mode=ro",
+            self.project_dir().join("orch.db").display()
+        );
+        let runtime = tokio::runtime::Builder::new_current_thread()
+            .enable_all()
+            .build()
+            .unwrap();
+        runtime.block_on(async {
+            use sqlx::Row;
+            let pool = sqlx::SqlitePool::connect(&url).await.unwrap();
+            let rows = sqlx::query(sql).fetch_all(&pool).await.unwrap();
+            let out = rows
+                .iter()
+                .map(|row| {
+                    (0..row.columns().len())
+                        .map(|i| {
+                            row.try_get::<String, _>(i)
+                                .or_else(|_| row.try_get::<f64, _>(i).map(|v| format!("{v:e}")))
+                                .or_else(|_| row.try_get::<i64, _>(i).map(|v| v.to_string()))
+                                .unwrap_or_else(|_| "NULL".into())
+                        })
+                        .collect()
+                })
+                .collect();
+            pool.close().await;
+            out
+        })
+    }
+}
+
+/// Lossy UTF-8 of process output.
+pub fn text(bytes: &[u8]) -> String {
+    String::from_utf8_lossy(bytes).into_owned()
+}
+
+/// Number of jobs of a status JSON in `state`.
+pub fn count(status: &Value, state: &str) -> usize {
+    status["jobs"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|j| j["state"] == state)
+        .count()
+}
+
+/// The default LIGGGHTS template's text.
+pub fn default_liggghts_template() -> String {
+    std::fs::read_to_string(root().join("templates/liggghts/hopper.in.tera")).unwrap()
+}

@@ -7,8 +7,17 @@
 //! Design points live in *coded* units, every factor scaled to `[-1, 1]`;
 //! [`FactorRange`] converts between coded and natural (SI) units.
 
+pub mod basis;
 pub mod design;
+pub mod fit;
+pub mod optimise;
+pub mod propagate;
+pub mod propose;
 mod scaling;
 
+pub use basis::{Basis, BasisKind};
 pub use design::{CentralCompositeAlpha, Design, DesignError, DesignKind};
+pub use fit::{Fit, FitError, Quality, TestQuality};
+pub use optimise::{optimise, BoxBounds, Goal, Optimum};
+pub use propagate::{propagate, Distribution, Spread};
 pub use scaling::FactorRange;

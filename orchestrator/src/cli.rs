@@ -9,6 +9,7 @@ use crate::driver::{self, Ending};
 use crate::executor::process::{self, ProcessHandle};
 use crate::exit_codes;
 use crate::project;
+use crate::rounds;
 use crate::status::{self, StudyDetail};
 use crate::store::{JobState, Store, StudyRow, StudyState};
 use crate::study::{Study, StudyError, Template};
@@ -58,6 +59,14 @@ pub enum Command {
         #[arg(long, default_value_t = 40)]
         tail: usize,
     },
+    /// The response surfaces of a study: terms, coefficients, t-values, σ_cross, R².
+    Fit {
+        /// The study name.
+        study: String,
+        /// The round (default: the latest one analysed).
+        #[arg(long)]
+        round: Option<i64>,
+    },
     /// Stop a study: running jobs are killed, pending ones will not start.
     Cancel {
         /// The study name.
@@ -98,6 +107,7 @@ pub async fn run(args: Args) -> anyhow::Result<i32> {
         } => submit(&study_file, project_dir, dry_run).await,
         Command::Status { study, json } => show_status(project_dir, study.as_deref(), json).await,
         Command::Logs { job, tail } => logs(project_dir, &job, tail).await,
+        Command::Fit { study, round } => show_fits(project_dir, &study, round).await,
         Command::Cancel { study } => cancel(project_dir, &study).await,
         Command::Resume {
             study,
@@ -202,13 +212,19 @@ async fn submit(
     drive(&store, &row, &study).await
 }
 
-/// Claims the study, drives it, releases it, and reports.
+/// Claims the study, drives its rounds, releases it, and reports.
 async fn drive(store: &Store, row: &StudyRow, study: &Study) -> anyhow::Result<i32> {
     let (pid, started) = process::current();
     store
         .claim_driver(row, pid, started, process::is_alive)
         .await?;
-    let outcome = driver::drive(store, row.id, study).await;
+    let runs_dir = store
+        .path()
+        .parent()
+        .unwrap_or(Path::new("."))
+        .join(project::RUNS_DIR_NAME)
+        .join(&study.name);
+    let outcome = drive_rounds(store, row.id, study, &runs_dir).await;
     let final_state = match &outcome {
         Ok(summary) => match summary.ending {
             Ending::Finished => StudyState::Finished,
@@ -238,6 +254,44 @@ async fn drive(store: &Store, row: &StudyRow, study: &Study) -> anyhow::Result<i
         Ending::Finished if summary.failed == 0 => exit_codes::SUCCESS,
         _ => exit_codes::JOBS_FAILED,
     })
+}
+
+/// Runs jobs, analyses each finished round, and runs the next until the rounds end.
+async fn drive_rounds(
+    store: &Store,
+    study_id: i64,
+    study: &Study,
+    runs_dir: &Path,
+) -> anyhow::Result<driver::Summary> {
+    loop {
+        let summary = driver::drive(store, study_id, study).await?;
+        if summary.ending != Ending::Finished {
+            return Ok(summary);
+        }
+        match rounds::advance(store, study_id, study, runs_dir).await? {
+            rounds::Advance::NextRound(next) => {
+                eprintln!("orch: round {} analysed; round {next} starts", next - 1);
+                for line in status::rounds_summary(
+                    &store.rounds(study_id).await?,
+                    &study
+                        .factors
+                        .iter()
+                        .map(|f| f.name.clone())
+                        .collect::<Vec<_>>(),
+                )
+                .lines()
+                {
+                    eprintln!("orch:   {line}");
+                }
+            }
+            rounds::Advance::Done(note) => {
+                if study.objective.is_some() || !study.responses.is_empty() {
+                    eprintln!("orch: analysis done: {note}");
+                }
+                return Ok(summary);
+            }
+        }
+    }
 }
 
 async fn find(project_dir: Option<&Path>, name: &str) -> anyhow::Result<(Store, StudyRow)> {
@@ -367,6 +421,28 @@ async fn logs(project_dir: Option<&Path>, reference: &str, tail: usize) -> anyho
             Err(e) => println!("(cannot read: {e})"),
         }
     }
+    Ok(exit_codes::SUCCESS)
+}
+
+async fn show_fits(
+    project_dir: Option<&Path>,
+    name: &str,
+    round: Option<i64>,
+) -> anyhow::Result<i32> {
+    let (store, row) = find(project_dir, name).await?;
+    let rounds = store.rounds(row.id).await?;
+    let analysed: Vec<_> = rounds.iter().filter(|r| !r.fits.is_empty()).collect();
+    let chosen = match round {
+        Some(n) => analysed.iter().find(|r| r.round == n).copied(),
+        None => analysed.last().copied(),
+    };
+    let Some(chosen) = chosen else {
+        return Err(input_error(format!(
+            "study `{name}` has no fitted round{}; surfaces are fitted when a round's jobs are all final",
+            round.map(|n| format!(" {n}")).unwrap_or_default()
+        )));
+    };
+    print!("{}", status::fits_report(chosen));
     Ok(exit_codes::SUCCESS)
 }
 

@@ -10,6 +10,7 @@ pub mod driver;
 pub mod executor;
 pub mod exit_codes;
 pub mod project;
+pub mod rounds;
 pub mod status;
 pub mod store;
 pub mod study;

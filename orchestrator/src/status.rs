@@ -8,7 +8,7 @@ use std::path::Path;
 
 use serde_json::{json, Value};
 
-use crate::store::{FactorRow, JobRow, JobState, Store, StoreError, StudyRow};
+use crate::store::{FactorRow, JobRow, JobState, Store, StoreError, StoredRound, StudyRow};
 
 /// Version of the JSON printed by `orch status --json`.
 pub const JSON_SCHEMA: u32 = 1;
@@ -22,6 +22,8 @@ pub struct StudyDetail {
     pub factors: Vec<FactorRow>,
     /// Its jobs with their point's values and responses.
     pub jobs: Vec<JobDetail>,
+    /// Its rounds with fits, optimum, spread and decision.
+    pub rounds: Vec<StoredRound>,
 }
 
 /// One job with what belongs to it.
@@ -65,10 +67,12 @@ impl StudyDetail {
                 }
             })
             .collect();
+        let rounds = store.rounds(study.id).await?;
         Ok(StudyDetail {
             study,
             factors,
             jobs,
+            rounds,
         })
     }
 
@@ -129,14 +133,16 @@ impl StudyDetail {
             .iter()
             .map(|(state, n)| format!("{n} {state}"))
             .collect();
+        let names: Vec<String> = self.factors.iter().map(|f| f.name.clone()).collect();
         format!(
-            "study {} ({}, {}): {} jobs: {}\n{}",
+            "study {} ({}, {}): {} jobs: {}\n{}{}",
             self.study.name,
             self.study.solver,
             self.study.state,
             self.jobs.len(),
             summary.join(", "),
-            table(&rows)
+            table(&rows),
+            rounds_summary(&self.rounds, &names)
         )
     }
 
@@ -165,6 +171,7 @@ impl StudyDetail {
                 "project_dir": project_dir.display().to_string(),
                 "counts": counts,
             },
+            "rounds": self.rounds.iter().map(|r| round_json(r, &names)).collect::<Vec<_>>(),
             "factors": self.factors.iter().map(|f| json!({
                 "name": f.name, "min": f.min, "max": f.max, "unit": f.unit,
             })).collect::<Vec<_>>(),
@@ -188,6 +195,162 @@ impl StudyDetail {
             })).collect::<Vec<_>>(),
         })
     }
+}
+
+fn round_json(round: &StoredRound, names: &[&str]) -> Value {
+    let by_factor = |values: &[f64]| -> BTreeMap<String, f64> {
+        names
+            .iter()
+            .zip(values)
+            .map(|(n, v)| (n.to_string(), *v))
+            .collect()
+    };
+    json!({
+        "round": round.round,
+        "box": names.iter().zip(&round.ranges).map(|(n, r)| (n.to_string(), json!({"min": r.min, "max": r.max}))).collect::<BTreeMap<_, _>>(),
+        "fits": round.fits.iter().map(|f| json!({
+            "response": f.response,
+            "basis": f.basis,
+            "order": f.order,
+            "runs": f.runs,
+            "r2": f.r2,
+            "adjusted_r2": f.adjusted_r2,
+            "sigma_cross_percent": f.sigma_cross,
+            "r2_cross": f.r2_cross,
+            "press": f.press,
+            "error": f.error,
+            "terms": f.terms.iter().map(|(name, b, se, t)| json!({"name": name, "coefficient": b, "std_error": se, "t": t})).collect::<Vec<_>>(),
+        })).collect::<Vec<_>>(),
+        "optimum": round.optimum.as_ref().map(|(response, goal, value, natural)| json!({
+            "response": response, "goal": goal, "value": value, "factors": by_factor(natural),
+        })),
+        "uncertainty": round.uncertainty.map(|u| json!({
+            "samples": u.samples, "mean": u.mean, "std": u.std,
+            "interval_95": [u.q025, u.q975], "lower_bound_95": u.q05, "upper_bound_95": u.q95,
+        })),
+        "decision": round.decision.as_ref().map(|(d, note)| json!({"decision": d, "note": note})),
+    })
+}
+
+/// Lines on each analysed round: fit quality, optimum, 95 % bounds, decision.
+pub fn rounds_summary(rounds: &[StoredRound], names: &[String]) -> String {
+    let mut out = String::new();
+    for round in rounds {
+        let boxed: Vec<String> = names
+            .iter()
+            .zip(&round.ranges)
+            .map(|(n, r)| format!("{n} [{:.6}, {:.6}]", r.min, r.max))
+            .collect();
+        out.push_str(&format!(
+            "round {}: box {}\n",
+            round.round,
+            boxed.join(", ")
+        ));
+        for fit in &round.fits {
+            match &fit.error {
+                Some(error) => out.push_str(&format!("  {}: no surface: {error}\n", fit.response)),
+                None => out.push_str(&format!(
+                    "  {}: σ_cross {} %, R² {}, R²(σ_cross) {} ({} runs, {} order {})\n",
+                    fit.response,
+                    fit.sigma_cross
+                        .map(|v| format!("{v:.1}"))
+                        .unwrap_or_else(|| "-".into()),
+                    fit.r2
+                        .map(|v| format!("{v:.4}"))
+                        .unwrap_or_else(|| "-".into()),
+                    fit.r2_cross
+                        .map(|v| format!("{v:.4}"))
+                        .unwrap_or_else(|| "-".into()),
+                    fit.runs,
+                    fit.basis,
+                    fit.order
+                )),
+            }
+        }
+        if let Some((response, goal, value, natural)) = &round.optimum {
+            let at: Vec<String> = names
+                .iter()
+                .zip(natural)
+                .map(|(n, v)| format!("{n} = {v:.6}"))
+                .collect();
+            out.push_str(&format!(
+                "  optimum ({goal} {response}): {value:.6} at {}\n",
+                at.join(", ")
+            ));
+        }
+        if let Some(u) = &round.uncertainty {
+            out.push_str(&format!(
+                "  uncertainty at the optimum ({} samples): mean {:.6}, std {:.6}, 95 % interval [{:.6}, {:.6}], one-sided 95 % bounds {:.6} / {:.6}\n",
+                u.samples, u.mean, u.std, u.q025, u.q975, u.q05, u.q95
+            ));
+        }
+        if let Some((decision, note)) = &round.decision {
+            out.push_str(&format!("  decision: {decision}: {note}\n"));
+        }
+    }
+    out
+}
+
+/// `orch fit`: every surface of one round, term by term.
+pub fn fits_report(round: &StoredRound) -> String {
+    let mut out = String::new();
+    for fit in &round.fits {
+        out.push_str(&format!(
+            "round {}, {} ({} basis, order {}, {} runs)\n",
+            round.round, fit.response, fit.basis, fit.order, fit.runs
+        ));
+        if let Some(error) = &fit.error {
+            out.push_str(&format!("  no surface: {error}\n\n"));
+            continue;
+        }
+        let fmt = |v: Option<f64>, digits: usize| {
+            v.map(|v| format!("{v:.digits$}"))
+                .unwrap_or_else(|| "-".into())
+        };
+        out.push_str(&format!(
+            "  σ_cross {} %, R² {}, adjusted R² {}, R²(σ_cross) {}, PRESS {}\n",
+            fmt(fit.sigma_cross, 2),
+            fmt(fit.r2, 4),
+            fmt(fit.adjusted_r2, 4),
+            fmt(fit.r2_cross, 4),
+            fit.press
+                .map(|v| format!("{v:.4e}"))
+                .unwrap_or_else(|| "-".into())
+        ));
+        let mut ranks: Vec<(usize, f64)> = fit
+            .terms
+            .iter()
+            .enumerate()
+            .skip(1)
+            .filter_map(|(i, t)| t.3.map(|t| (i, t.abs())))
+            .collect();
+        ranks.sort_by(|a, b| b.1.total_cmp(&a.1));
+        let mut rows = vec![["TERM", "COEFFICIENT", "STD ERROR", "t", "PARETO RANK"]
+            .iter()
+            .map(|s| s.to_string())
+            .collect::<Vec<_>>()];
+        for (i, (name, b, se, t)) in fit.terms.iter().enumerate() {
+            let rank = ranks
+                .iter()
+                .position(|(j, _)| *j == i)
+                .map(|r| (r + 1).to_string())
+                .unwrap_or_else(|| "-".into());
+            rows.push(vec![
+                name.clone(),
+                format!("{b:.6e}"),
+                se.map(|v| format!("{v:.3e}")).unwrap_or_else(|| "-".into()),
+                t.map(|v| format!("{v:.2}")).unwrap_or_else(|| "-".into()),
+                rank,
+            ]);
+        }
+        for line in table(&rows).lines() {
+            out.push_str("  ");
+            out.push_str(line);
+            out.push('\n');
+        }
+        out.push('\n');
+    }
+    out
 }
 
 /// One line per study, for `orch status` without a study.

@@ -9,5 +9,6 @@ mod architecture;
 mod crash_resume;
 mod faults;
 mod real_liggghts;
+mod rounds;
 mod study_files;
 mod support;

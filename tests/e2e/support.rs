@@ -15,10 +15,16 @@ pub fn root() -> PathBuf {
         .to_path_buf()
 }
 
+/// Newest modification time of the files under `dir` that go into the binary (test
+/// modules and snapshots do not).
 fn newest_source(dir: &Path) -> SystemTime {
     let mut newest = SystemTime::UNIX_EPOCH;
     for entry in std::fs::read_dir(dir).into_iter().flatten().flatten() {
         let path = entry.path();
+        let name = entry.file_name().to_string_lossy().into_owned();
+        if name == "tests.rs" || name.ends_with("_tests.rs") || name == "snapshots" {
+            continue;
+        }
         let time = if path.is_dir() {
             newest_source(&path)
         } else {

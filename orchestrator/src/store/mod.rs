@@ -5,6 +5,7 @@
 //! IN (…)`), so two processes can never both move the same job, and every transition
 //! is recorded in `job_events`. The database is `<project>/orch.db` in WAL mode.
 
+mod rounds;
 mod rows;
 
 use std::collections::BTreeMap;
@@ -15,6 +16,7 @@ use std::time::{Duration, SystemTime, UNIX_EPOCH};
 use sqlx::sqlite::{SqliteConnectOptions, SqliteJournalMode, SqlitePoolOptions, SqliteSynchronous};
 use sqlx::{Row, SqlitePool};
 
+pub use rounds::{FitRecord, RoundRecord, StoredFit, StoredRound};
 pub use rows::{FactorRow, JobRow, JobState, PointRow, StudyRow, StudyState};
 
 use crate::study::Study;
@@ -195,45 +197,27 @@ impl Store {
                 .await
                 .map_err(query_error("record a factor"))?;
         }
-        for (idx, point) in study.points.iter().enumerate() {
-            let point_id: i64 = sqlx::query(
-                "INSERT INTO points (study_id, round, idx) VALUES (?, 0, ?) RETURNING id",
+        for (idx, range) in study.factors.iter().map(|f| f.range).enumerate() {
+            sqlx::query(
+                "INSERT INTO round_factors (study_id, round, idx, min, max) VALUES (?, 0, ?, ?, ?)",
             )
             .bind(study_id)
             .bind(idx as i64)
-            .fetch_one(&mut *tx)
+            .bind(range.min)
+            .bind(range.max)
+            .execute(&mut *tx)
             .await
-            .map_err(query_error("record a design point"))?
-            .get(0);
-            for (factor_idx, (coded, natural)) in point.coded.iter().zip(&point.natural).enumerate()
-            {
-                sqlx::query("INSERT INTO point_values (point_id, factor_idx, coded, natural) VALUES (?, ?, ?, ?)")
-                    .bind(point_id)
-                    .bind(factor_idx as i64)
-                    .bind(coded)
-                    .bind(natural)
-                    .execute(&mut *tx)
-                    .await
-                    .map_err(query_error("record a design point"))?;
-            }
-            for replicate in 0..study.replicates {
-                let name = format!("p{idx:03}r{replicate}");
-                let run_dir = runs_root.join(&study.name).join(&name);
-                sqlx::query(
-                    "INSERT INTO jobs (study_id, point_id, replicate, name, seed, state, run_dir)
-                     VALUES (?, ?, ?, ?, ?, 'pending', ?)",
-                )
-                .bind(study_id)
-                .bind(point_id)
-                .bind(replicate as i64)
-                .bind(&name)
-                .bind(study.job_seed(idx, replicate) as i64)
-                .bind(run_dir.display().to_string())
-                .execute(&mut *tx)
-                .await
-                .map_err(query_error("record a job"))?;
-            }
+            .map_err(query_error("record the round's box"))?;
         }
+        insert_points_and_jobs(
+            &mut tx,
+            study,
+            study_id,
+            0,
+            &study.points,
+            &runs_root.join(&study.name),
+        )
+        .await?;
         tx.commit()
             .await
             .map_err(query_error("commit the new study"))?;
@@ -683,6 +667,63 @@ impl Store {
         )
         .await
     }
+}
+
+/// Inserts a round's points and one job per point and replicate. Round 0's jobs are
+/// `p<point>r<replicate>`, later rounds' `r<round>-p<point>r<replicate>`.
+async fn insert_points_and_jobs(
+    tx: &mut sqlx::SqliteConnection,
+    study: &Study,
+    study_id: i64,
+    round: i64,
+    points: &[crate::study::DesignPoint],
+    runs_dir: &Path,
+) -> Result<(), StoreError> {
+    for (idx, point) in points.iter().enumerate() {
+        let point_id: i64 =
+            sqlx::query("INSERT INTO points (study_id, round, idx) VALUES (?, ?, ?) RETURNING id")
+                .bind(study_id)
+                .bind(round)
+                .bind(idx as i64)
+                .fetch_one(&mut *tx)
+                .await
+                .map_err(query_error("record a design point"))?
+                .get(0);
+        for (factor_idx, (coded, natural)) in point.coded.iter().zip(&point.natural).enumerate() {
+            sqlx::query("INSERT INTO point_values (point_id, factor_idx, coded, natural) VALUES (?, ?, ?, ?)")
+                .bind(point_id)
+                .bind(factor_idx as i64)
+                .bind(coded)
+                .bind(natural)
+                .execute(&mut *tx)
+                .await
+                .map_err(query_error("record a design point"))?;
+        }
+        for replicate in 0..study.replicates {
+            let prefix = if round == 0 {
+                String::new()
+            } else {
+                format!("r{round}-")
+            };
+            let name = format!("{prefix}p{idx:03}r{replicate}");
+            let run_dir = runs_dir.join(&name);
+            let seed = study.job_seed(round as usize * 100_000 + idx, replicate);
+            sqlx::query(
+                "INSERT INTO jobs (study_id, point_id, replicate, name, seed, state, run_dir)
+                 VALUES (?, ?, ?, ?, ?, 'pending', ?)",
+            )
+            .bind(study_id)
+            .bind(point_id)
+            .bind(replicate as i64)
+            .bind(&name)
+            .bind(seed as i64)
+            .bind(run_dir.display().to_string())
+            .execute(&mut *tx)
+            .await
+            .map_err(query_error("record a job"))?;
+        }
+    }
+    Ok(())
 }
 
 /// A value bound into a transition's assignments.

@@ -43,6 +43,166 @@ pub struct StudyFile {
     /// Responses the study is about; every response is stored, these are shown.
     #[serde(default)]
     pub responses: Vec<String>,
+    /// The response to optimise; needed for more than one round.
+    #[serde(default)]
+    pub objective: Option<ObjectiveFile>,
+    /// Rounds of design, fit and proposal (default 1).
+    #[serde(default)]
+    pub rounds: Option<u32>,
+    /// The response surfaces fitted after each round.
+    #[serde(default)]
+    pub metamodel: MetamodelFile,
+    /// How the next round's box is chosen and when to stop.
+    #[serde(default)]
+    pub next_round: NextRoundFile,
+    /// Uncertain parameters propagated by Monte Carlo at the optimum.
+    #[serde(default)]
+    pub uncertainty: Option<UncertaintyFile>,
+}
+
+/// Minimise or maximise.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum GoalFile {
+    /// Smallest value.
+    #[serde(alias = "minimize")]
+    Minimise,
+    /// Largest value.
+    #[serde(alias = "maximize")]
+    Maximise,
+}
+
+/// The `objective:` section.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ObjectiveFile {
+    /// Response name.
+    pub response: String,
+    /// Direction.
+    pub goal: GoalFile,
+}
+
+/// Polynomial bases.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum BasisFile {
+    /// Powers of the coded factors.
+    Monomial,
+    /// Legendre polynomials of the coded factors.
+    #[default]
+    Legendre,
+}
+
+/// The `metamodel:` section.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MetamodelFile {
+    /// Basis (default legendre).
+    #[serde(default)]
+    pub basis: BasisFile,
+    /// Total polynomial order, 1 to 3 (default 2).
+    #[serde(default = "two")]
+    pub order: u32,
+}
+
+impl Default for MetamodelFile {
+    fn default() -> Self {
+        MetamodelFile {
+            basis: BasisFile::Legendre,
+            order: 2,
+        }
+    }
+}
+
+fn two() -> u32 {
+    2
+}
+
+/// The `next_round:` section.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NextRoundFile {
+    /// Each half-width of the next box is this fraction of the current one (default 0.5).
+    #[serde(default = "half")]
+    pub shrink: f64,
+    /// Stop when the predicted optimum changes by less than this fraction (default 0.01).
+    #[serde(default = "one_percent")]
+    pub tolerance: f64,
+}
+
+impl Default for NextRoundFile {
+    fn default() -> Self {
+        NextRoundFile {
+            shrink: 0.5,
+            tolerance: 0.01,
+        }
+    }
+}
+
+fn half() -> f64 {
+    0.5
+}
+
+fn one_percent() -> f64 {
+    0.01
+}
+
+/// The `uncertainty:` section.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct UncertaintyFile {
+    /// Monte Carlo samples (default 100000).
+    #[serde(default = "hundred_thousand")]
+    pub samples: usize,
+    /// Seed of the sampler.
+    #[serde(default)]
+    pub seed: u64,
+    /// The uncertain parameters; each must be a factor of the study.
+    pub parameters: Vec<UncertainParameterFile>,
+}
+
+fn hundred_thousand() -> usize {
+    100_000
+}
+
+/// Distribution families.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum DistributionFile {
+    /// Needs `mean`, `std`.
+    Normal,
+    /// Needs `low`, `high`.
+    Uniform,
+    /// Needs `mu`, `sigma` (of the logarithm).
+    Lognormal,
+}
+
+/// One uncertain parameter.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct UncertainParameterFile {
+    /// A factor's name.
+    pub name: String,
+    /// Distribution family.
+    pub distribution: DistributionFile,
+    /// Normal: mean.
+    #[serde(default)]
+    pub mean: Option<f64>,
+    /// Normal: standard deviation.
+    #[serde(default)]
+    pub std: Option<f64>,
+    /// Uniform: lower end.
+    #[serde(default)]
+    pub low: Option<f64>,
+    /// Uniform: upper end.
+    #[serde(default)]
+    pub high: Option<f64>,
+    /// Log-normal: mean of the logarithm.
+    #[serde(default)]
+    pub mu: Option<f64>,
+    /// Log-normal: standard deviation of the logarithm.
+    #[serde(default)]
+    pub sigma: Option<f64>,
 }
 
 fn one() -> u32 {

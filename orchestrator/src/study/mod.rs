@@ -11,10 +11,14 @@ use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use orch_adapters::{adapter_for, Case, ResolvedParameters, SolverAdapter, SOLVER_NAMES};
-use orch_metamodel::{CentralCompositeAlpha, Design, DesignKind, FactorRange};
+use orch_metamodel::{
+    BasisKind, CentralCompositeAlpha, Design, DesignKind, Distribution, FactorRange, Goal,
+};
 use sha2::{Digest, Sha256};
 
-use file::{AlphaFile, DesignFile, DesignType, ExecutorFile};
+use file::{
+    AlphaFile, BasisFile, DesignFile, DesignType, DistributionFile, ExecutorFile, GoalFile,
+};
 pub use file::{ExecutorKind, StudyFile};
 pub use locate::Location;
 
@@ -74,6 +78,39 @@ pub struct Template {
     pub text: String,
 }
 
+/// What the rounds optimise.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Objective {
+    /// Response name.
+    pub response: String,
+    /// Direction.
+    pub goal: Goal,
+}
+
+/// The response surfaces fitted after each round.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MetamodelConfig {
+    /// Basis.
+    pub basis: BasisKind,
+    /// Total order.
+    pub order: u32,
+    /// Next box half-width over the current one.
+    pub shrink: f64,
+    /// Relative change of the optimum below which the study stops.
+    pub tolerance: f64,
+}
+
+/// Monte Carlo at the optimum over uncertain factors.
+#[derive(Debug, Clone, PartialEq)]
+pub struct UncertaintyConfig {
+    /// Samples.
+    pub samples: usize,
+    /// Seed.
+    pub seed: u64,
+    /// `(factor index, distribution in natural units)`.
+    pub parameters: Vec<(usize, Distribution)>,
+}
+
 /// A validated study: everything needed to create and run its jobs.
 #[derive(Clone)]
 pub struct Study {
@@ -97,6 +134,16 @@ pub struct Study {
     pub seed: u64,
     /// Responses of interest.
     pub responses: Vec<String>,
+    /// The design of every round.
+    pub design: DesignKind,
+    /// What the rounds optimise, if anything.
+    pub objective: Option<Objective>,
+    /// Rounds at most.
+    pub rounds: u32,
+    /// Fitting and proposal settings.
+    pub metamodel: MetamodelConfig,
+    /// Uncertain factors, if any.
+    pub uncertainty: Option<UncertaintyConfig>,
     /// The file's text, kept in the store.
     pub file_text: String,
     /// SHA-256 of the file's text, hex.
@@ -419,6 +466,70 @@ impl Checker<'_> {
             }
         }
         let executor = self.executor(&file.executor, adapter)?;
+        let objective = match &file.objective {
+            None => None,
+            Some(objective) => {
+                if !known_responses.contains(&objective.response) {
+                    return Err(self.error(
+                        "objective.response",
+                        format!(
+                            "unknown response `{}`; expected one of: {}",
+                            objective.response,
+                            known_responses.join(", ")
+                        ),
+                    ));
+                }
+                Some(Objective {
+                    response: objective.response.clone(),
+                    goal: match objective.goal {
+                        GoalFile::Minimise => Goal::Minimise,
+                        GoalFile::Maximise => Goal::Maximise,
+                    },
+                })
+            }
+        };
+        let rounds = file.rounds.unwrap_or(1);
+        if rounds == 0 || rounds > 50 {
+            return Err(self.error("rounds", format!("expected 1 to 50 rounds, got {rounds}")));
+        }
+        if rounds > 1 && objective.is_none() {
+            return Err(self.error(
+                "rounds",
+                "more than one round needs an `objective:` to move the box towards",
+            ));
+        }
+        if !(1..=3).contains(&file.metamodel.order) {
+            return Err(self.error(
+                "metamodel.order",
+                format!(
+                    "expected an order of 1, 2 or 3, got {}",
+                    file.metamodel.order
+                ),
+            ));
+        }
+        let shrink = file.next_round.shrink;
+        if !(shrink > 0.0 && shrink <= 1.0) {
+            return Err(self.error(
+                "next_round.shrink",
+                format!("expected a fraction in (0, 1], got {shrink}"),
+            ));
+        }
+        if !(file.next_round.tolerance.is_finite() && file.next_round.tolerance >= 0.0) {
+            return Err(self.error("next_round.tolerance", "expected a non-negative fraction"));
+        }
+        let metamodel = MetamodelConfig {
+            basis: match file.metamodel.basis {
+                BasisFile::Monomial => BasisKind::Monomial,
+                BasisFile::Legendre => BasisKind::Legendre,
+            },
+            order: file.metamodel.order,
+            shrink,
+            tolerance: file.next_round.tolerance,
+        };
+        let uncertainty = match &file.uncertainty {
+            None => None,
+            Some(u) => Some(self.uncertainty(u, &factors)?),
+        };
         let study = Study {
             name: file.name,
             adapter,
@@ -430,6 +541,11 @@ impl Checker<'_> {
             replicates: file.replicates,
             seed: file.seed,
             responses: file.responses,
+            design: design_kind,
+            objective,
+            rounds,
+            metamodel,
+            uncertainty,
             file_text: text.to_string(),
             file_sha256: format!("{:x}", Sha256::digest(text.as_bytes())),
         };
@@ -453,6 +569,70 @@ impl Checker<'_> {
             }
         }
         Ok(study)
+    }
+
+    fn uncertainty(
+        &self,
+        file: &file::UncertaintyFile,
+        factors: &[Factor],
+    ) -> Result<UncertaintyConfig, StudyError> {
+        if file.samples < 100 {
+            return Err(self.error(
+                "uncertainty.samples",
+                format!("expected at least 100 samples, got {}", file.samples),
+            ));
+        }
+        let mut parameters = Vec::new();
+        for (i, p) in file.parameters.iter().enumerate() {
+            let at = |field: &str| format!("uncertainty.parameters[{i}].{field}");
+            let Some(index) = factors.iter().position(|f| f.name == p.name) else {
+                return Err(self.error(
+                    &at("name"),
+                    format!("`{}` must be a factor of the study: the Monte Carlo runs through the design surface; add it to `factors:` with a range covering its distribution", p.name),
+                ));
+            };
+            let need = |value: Option<f64>, field: &str| {
+                value.ok_or_else(|| {
+                    self.error(
+                        &at(field),
+                        format!("a {:?} distribution needs `{field}:`", p.distribution)
+                            .to_lowercase(),
+                    )
+                })
+            };
+            let distribution = match p.distribution {
+                DistributionFile::Normal => Distribution::Normal {
+                    mean: need(p.mean, "mean")?,
+                    std: need(p.std, "std")?,
+                },
+                DistributionFile::Uniform => Distribution::Uniform {
+                    low: need(p.low, "low")?,
+                    high: need(p.high, "high")?,
+                },
+                DistributionFile::Lognormal => Distribution::LogNormal {
+                    mu: need(p.mu, "mu")?,
+                    sigma: need(p.sigma, "sigma")?,
+                },
+            };
+            orch_metamodel::propagate(&|x| x[0], &[distribution], 2, 0).map_err(|e| {
+                self.error(
+                    &at("distribution"),
+                    e.to_string().trim_start_matches("input 0: ").to_string(),
+                )
+            })?;
+            parameters.push((index, distribution));
+        }
+        if parameters.is_empty() {
+            return Err(self.error(
+                "uncertainty.parameters",
+                "expected at least one uncertain parameter",
+            ));
+        }
+        Ok(UncertaintyConfig {
+            samples: file.samples,
+            seed: file.seed,
+            parameters,
+        })
     }
 
     fn design_kind(&self, design: &DesignFile, study_seed: u64) -> Result<DesignKind, StudyError> {

@@ -1,0 +1,205 @@
+//! Polynomial bases over coded factors: complete polynomials of a given order, as
+//! monomials (`a`, `a*f`, `a^2`) or products of Legendre polynomials (`P1(a)`,
+//! `P2(a)`, `P1(a)*P1(f)`). Both span the same space, so fits in either predict the
+//! same; Legendre columns are better conditioned on `[-1, 1]`.
+
+/// Which one-dimensional polynomials the terms are products of.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BasisKind {
+    /// Powers `x^k`.
+    Monomial,
+    /// Legendre polynomials `P_k(x)`, orthogonal on `[-1, 1]`.
+    Legendre,
+}
+
+/// A complete polynomial basis of total degree `order` in `n_factors` variables.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Basis {
+    /// Kind of the one-dimensional factors.
+    pub kind: BasisKind,
+    /// Highest total degree.
+    pub order: u32,
+    /// Number of variables.
+    pub n_factors: usize,
+    /// Degree of each variable in each term; the first term is the constant.
+    pub terms: Vec<Vec<u32>>,
+}
+
+impl Basis {
+    /// Every term of total degree at most `order`, constant first, then by degree;
+    /// within a degree, pure powers before interactions, in factor order.
+    pub fn complete(kind: BasisKind, n_factors: usize, order: u32) -> Basis {
+        let mut terms = Vec::new();
+        for degree in 0..=order {
+            let mut of_degree = Vec::new();
+            exponents(
+                n_factors,
+                degree,
+                &mut vec![0; n_factors],
+                0,
+                &mut of_degree,
+            );
+            // Pure powers (one variable) first, then interactions; stable within.
+            of_degree.sort_by_key(|t: &Vec<u32>| {
+                (
+                    t.iter().filter(|&&e| e > 0).count(),
+                    std::cmp::Reverse(t.clone()),
+                )
+            });
+            terms.extend(of_degree);
+        }
+        Basis {
+            kind,
+            order,
+            n_factors,
+            terms,
+        }
+    }
+
+    /// Number of terms.
+    pub fn len(&self) -> usize {
+        self.terms.len()
+    }
+
+    /// True for a basis without terms (never for a complete basis).
+    pub fn is_empty(&self) -> bool {
+        self.terms.is_empty()
+    }
+
+    /// The terms' names, with `factors` naming the variables.
+    pub fn names(&self, factors: &[String]) -> Vec<String> {
+        self.terms
+            .iter()
+            .map(|t| self.term_name(t, factors))
+            .collect()
+    }
+
+    fn term_name(&self, term: &[u32], factors: &[String]) -> String {
+        let parts: Vec<String> = term
+            .iter()
+            .zip(factors)
+            .filter(|(e, _)| **e > 0)
+            .map(|(&e, name)| match (self.kind, e) {
+                (BasisKind::Monomial, 1) => name.clone(),
+                (BasisKind::Monomial, e) => format!("{name}^{e}"),
+                (BasisKind::Legendre, e) => format!("P{e}({name})"),
+            })
+            .collect();
+        if parts.is_empty() {
+            "1".to_string()
+        } else {
+            parts.join("*")
+        }
+    }
+
+    /// Values of every term at the coded point `x`.
+    pub fn row(&self, x: &[f64]) -> Vec<f64> {
+        let mut out = Vec::with_capacity(self.terms.len());
+        self.row_into(x, &mut out);
+        out
+    }
+
+    /// Values of every term at `x`, written into `out` (cleared first).
+    pub fn row_into(&self, x: &[f64], out: &mut Vec<f64>) {
+        out.clear();
+        let max = self.order as usize;
+        // One-dimensional values p[j][k] = P_k(x_j) or x_j^k.
+        let mut table = [[0.0f64; 8]; 16];
+        let use_table = max < 8 && x.len() <= 16;
+        if use_table {
+            for (row, &xj) in table.iter_mut().zip(x) {
+                for (k, value) in row.iter_mut().enumerate().take(max + 1) {
+                    *value = self.one_dimensional(k as u32, xj);
+                }
+            }
+        }
+        for term in &self.terms {
+            let mut value = 1.0;
+            for (j, &e) in term.iter().enumerate() {
+                if e > 0 {
+                    value *= if use_table {
+                        table[j][e as usize]
+                    } else {
+                        self.one_dimensional(e, x[j])
+                    };
+                }
+            }
+            out.push(value);
+        }
+    }
+
+    fn one_dimensional(&self, degree: u32, x: f64) -> f64 {
+        match self.kind {
+            BasisKind::Monomial => x.powi(degree as i32),
+            BasisKind::Legendre => legendre(degree, x),
+        }
+    }
+}
+
+/// The Legendre polynomial `P_n(x)` by Bonnet's recurrence.
+pub fn legendre(n: u32, x: f64) -> f64 {
+    let (mut previous, mut current) = (1.0, x);
+    if n == 0 {
+        return 1.0;
+    }
+    for k in 1..n {
+        let k = k as f64;
+        let next = ((2.0 * k + 1.0) * x * current - k * previous) / (k + 1.0);
+        previous = current;
+        current = next;
+    }
+    current
+}
+
+/// All exponent vectors of `n` variables summing to `degree`.
+fn exponents(n: usize, degree: u32, current: &mut Vec<u32>, index: usize, out: &mut Vec<Vec<u32>>) {
+    if index == n {
+        if current.iter().sum::<u32>() == degree {
+            out.push(current.clone());
+        }
+        return;
+    }
+    let used: u32 = current[..index].iter().sum();
+    for e in 0..=(degree - used) {
+        current[index] = e;
+        exponents(n, degree, current, index + 1, out);
+    }
+    current[index] = 0;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn names(kind: BasisKind, order: u32) -> Vec<String> {
+        Basis::complete(kind, 2, order).names(&["a".into(), "f".into()])
+    }
+
+    #[test]
+    fn quadratic_terms_are_named_in_the_usual_order() {
+        assert_eq!(
+            names(BasisKind::Monomial, 2),
+            ["1", "a", "f", "a^2", "f^2", "a*f"]
+        );
+        assert_eq!(
+            names(BasisKind::Legendre, 2),
+            ["1", "P1(a)", "P1(f)", "P2(a)", "P2(f)", "P1(a)*P1(f)"]
+        );
+    }
+
+    #[test]
+    fn complete_bases_have_binomial_sizes() {
+        // C(k + d, d) terms for k factors and order d.
+        assert_eq!(Basis::complete(BasisKind::Monomial, 4, 2).len(), 15);
+        assert_eq!(Basis::complete(BasisKind::Legendre, 3, 3).len(), 20);
+        assert_eq!(Basis::complete(BasisKind::Monomial, 3, 1).len(), 4);
+    }
+
+    #[test]
+    fn legendre_polynomials_match_closed_forms() {
+        for x in [-1.0, -0.3, 0.0, 0.5, 1.0] {
+            assert!((legendre(2, x) - (3.0 * x * x - 1.0) / 2.0).abs() < 1e-15);
+            assert!((legendre(3, x) - (5.0 * x * x * x - 3.0 * x) / 2.0).abs() < 1e-15);
+        }
+    }
+}

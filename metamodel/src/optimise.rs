@@ -1,0 +1,355 @@
+//! The optimum of a response surface inside a box.
+//!
+//! For a surface of order two or less the optimum is found exactly: the minimum of a
+//! quadratic on a box lies at a stationary point of the quadratic restricted to one
+//! face of the box (its interior, an edge, …, a corner), so every face's stationary
+//! point is solved for and the best one inside the box wins (3^k faces for k
+//! factors). Higher orders, and objectives with constraints, use projected gradient
+//! descent from many starts (the corners, the centre and seeded random points).
+
+use nalgebra::{DMatrix, DVector};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+/// Minimise or maximise.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Goal {
+    /// Smallest value.
+    Minimise,
+    /// Largest value.
+    Maximise,
+}
+
+/// A box in coded units.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BoxBounds {
+    /// Lower corner.
+    pub lower: Vec<f64>,
+    /// Upper corner.
+    pub upper: Vec<f64>,
+}
+
+impl BoxBounds {
+    /// The coded design box `[-1, 1]^k`.
+    pub fn coded(k: usize) -> BoxBounds {
+        BoxBounds {
+            lower: vec![-1.0; k],
+            upper: vec![1.0; k],
+        }
+    }
+
+    fn clamp(&self, x: &mut [f64]) {
+        for (i, v) in x.iter_mut().enumerate() {
+            *v = v.clamp(self.lower[i], self.upper[i]);
+        }
+    }
+
+    fn contains(&self, x: &[f64]) -> bool {
+        let slack = 1e-12;
+        x.iter()
+            .enumerate()
+            .all(|(i, v)| *v >= self.lower[i] - slack && *v <= self.upper[i] + slack)
+    }
+}
+
+/// Where the optimum is and what the surface says there.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Optimum {
+    /// Coded coordinates.
+    pub x: Vec<f64>,
+    /// The objective's value there.
+    pub value: f64,
+    /// True when found exactly (quadratic), false when by multistart search.
+    pub exact: bool,
+}
+
+/// A quadratic `c + bᵀx + xᵀAx` (A symmetric).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Quadratic {
+    /// Constant.
+    pub c: f64,
+    /// Linear coefficients.
+    pub b: Vec<f64>,
+    /// Symmetric matrix of second-order coefficients.
+    pub a: Vec<Vec<f64>>,
+}
+
+impl Quadratic {
+    /// The quadratic that agrees with `f` in `k` variables, by exact finite differences
+    /// (exact when `f` is a polynomial of order two or less).
+    pub fn from_fn(k: usize, f: &dyn Fn(&[f64]) -> f64) -> Quadratic {
+        let unit = |i: usize| {
+            let mut e = vec![0.0; k];
+            e[i] = 1.0;
+            e
+        };
+        let zero = vec![0.0; k];
+        let c = f(&zero);
+        let mut b = vec![0.0; k];
+        let mut a = vec![vec![0.0; k]; k];
+        let plus: Vec<f64> = (0..k).map(|i| f(&unit(i))).collect();
+        for i in 0..k {
+            let mut minus = unit(i);
+            minus[i] = -1.0;
+            let f_minus = f(&minus);
+            b[i] = (plus[i] - f_minus) / 2.0;
+            a[i][i] = (plus[i] + f_minus - 2.0 * c) / 2.0;
+            for j in 0..i {
+                let mut both = unit(i);
+                both[j] = 1.0;
+                let mixed = (f(&both) - plus[i] - plus[j] + c) / 2.0;
+                a[i][j] = mixed;
+                a[j][i] = mixed;
+            }
+        }
+        Quadratic { c, b, a }
+    }
+
+    /// Its value at `x`.
+    pub fn value(&self, x: &[f64]) -> f64 {
+        let mut v = self.c;
+        for i in 0..x.len() {
+            v += self.b[i] * x[i];
+            for j in 0..x.len() {
+                v += x[i] * self.a[i][j] * x[j];
+            }
+        }
+        v
+    }
+
+    /// The exact minimum on `bounds`, by enumerating the faces of the box.
+    pub fn minimise_in_box(&self, bounds: &BoxBounds) -> Optimum {
+        let k = self.b.len();
+        let mut best: Option<Optimum> = None;
+        // Each factor is free (0), at its lower bound (1) or at its upper bound (2).
+        let faces = 3usize.pow(k as u32);
+        for face in 0..faces {
+            let mut pattern = Vec::with_capacity(k);
+            let mut rest = face;
+            for _ in 0..k {
+                pattern.push(rest % 3);
+                rest /= 3;
+            }
+            let mut x: Vec<f64> = (0..k)
+                .map(|i| match pattern[i] {
+                    1 => bounds.lower[i],
+                    2 => bounds.upper[i],
+                    _ => 0.0,
+                })
+                .collect();
+            let free: Vec<usize> = (0..k).filter(|&i| pattern[i] == 0).collect();
+            if !free.is_empty() {
+                // ∂/∂x_f: b_f + 2 Σ_j A_fj x_j = 0 over the free variables.
+                let m = free.len();
+                let matrix = DMatrix::from_fn(m, m, |r, s| 2.0 * self.a[free[r]][free[s]]);
+                let rhs = DVector::from_fn(m, |r, _| {
+                    let i = free[r];
+                    -self.b[i]
+                        - (0..k)
+                            .filter(|j| pattern[*j] != 0)
+                            .map(|j| 2.0 * self.a[i][j] * x[j])
+                            .sum::<f64>()
+                });
+                let Some(solution) = matrix.lu().solve(&rhs) else {
+                    continue;
+                };
+                for (r, &i) in free.iter().enumerate() {
+                    x[i] = solution[r];
+                }
+                if !bounds.contains(&x) || x.iter().any(|v| !v.is_finite()) {
+                    continue;
+                }
+                bounds.clamp(&mut x);
+            }
+            let value = self.value(&x);
+            if best.as_ref().is_none_or(|b| value < b.value) {
+                best = Some(Optimum {
+                    x,
+                    value,
+                    exact: true,
+                });
+            }
+        }
+        best.expect("the corners of the box are always candidates")
+    }
+}
+
+/// Optimum of `f` on `bounds` for `goal`: exact when `quadratic` (f is of order ≤ 2),
+/// else by multistart projected gradient descent seeded with `seed`.
+pub fn optimise(
+    f: &dyn Fn(&[f64]) -> f64,
+    quadratic: bool,
+    goal: Goal,
+    bounds: &BoxBounds,
+    seed: u64,
+) -> Optimum {
+    let sign = match goal {
+        Goal::Minimise => 1.0,
+        Goal::Maximise => -1.0,
+    };
+    let signed = |x: &[f64]| sign * f(x);
+    let found = if quadratic {
+        Quadratic::from_fn(bounds.lower.len(), &signed).minimise_in_box(bounds)
+    } else {
+        multistart(&signed, bounds, seed)
+    };
+    Optimum {
+        value: f(&found.x),
+        ..found
+    }
+}
+
+/// Best local minimum of projected gradient descent from corners, centre and random starts.
+pub fn multistart(f: &dyn Fn(&[f64]) -> f64, bounds: &BoxBounds, seed: u64) -> Optimum {
+    let k = bounds.lower.len();
+    let mut starts: Vec<Vec<f64>> = vec![(0..k)
+        .map(|i| 0.5 * (bounds.lower[i] + bounds.upper[i]))
+        .collect()];
+    if k <= 8 {
+        for corner in 0..(1usize << k) {
+            starts.push(
+                (0..k)
+                    .map(|i| {
+                        if corner >> i & 1 == 1 {
+                            bounds.upper[i]
+                        } else {
+                            bounds.lower[i]
+                        }
+                    })
+                    .collect(),
+            );
+        }
+    }
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    for _ in 0..(10 * k).max(20) {
+        starts.push(
+            (0..k)
+                .map(|i| rng.random_range(bounds.lower[i]..=bounds.upper[i]))
+                .collect(),
+        );
+    }
+    starts
+        .into_iter()
+        .map(|start| descend(f, bounds, start))
+        .min_by(|a, b| a.value.total_cmp(&b.value))
+        .expect("at least one start")
+}
+
+fn descend(f: &dyn Fn(&[f64]) -> f64, bounds: &BoxBounds, mut x: Vec<f64>) -> Optimum {
+    let k = x.len();
+    let mut value = f(&x);
+    let mut step = 0.5;
+    for _ in 0..500 {
+        let h = 1e-6;
+        let gradient: Vec<f64> = (0..k)
+            .map(|i| {
+                let mut up = x.clone();
+                let mut down = x.clone();
+                up[i] += h;
+                down[i] -= h;
+                (f(&up) - f(&down)) / (2.0 * h)
+            })
+            .collect();
+        let norm = gradient.iter().map(|g| g * g).sum::<f64>().sqrt();
+        if norm < 1e-12 {
+            break;
+        }
+        let mut improved = false;
+        while step > 1e-12 {
+            let mut candidate: Vec<f64> = x
+                .iter()
+                .zip(&gradient)
+                .map(|(v, g)| v - step * g / norm)
+                .collect();
+            bounds.clamp(&mut candidate);
+            let candidate_value = f(&candidate);
+            if candidate_value < value {
+                let moved: f64 = candidate.iter().zip(&x).map(|(a, b)| (a - b).abs()).sum();
+                x = candidate;
+                value = candidate_value;
+                improved = moved > 1e-14;
+                step *= 1.5;
+                break;
+            }
+            step *= 0.5;
+        }
+        if !improved {
+            break;
+        }
+    }
+    Optimum {
+        x,
+        value,
+        exact: false,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn bowl(centre: [f64; 2]) -> impl Fn(&[f64]) -> f64 {
+        move |x: &[f64]| {
+            (x[0] - centre[0]).powi(2)
+                + 2.0 * (x[1] - centre[1]).powi(2)
+                + 0.5 * (x[0] - centre[0]) * (x[1] - centre[1])
+        }
+    }
+
+    fn close(a: &[f64], b: &[f64], tolerance: f64) -> bool {
+        a.iter().zip(b).all(|(x, y)| (x - y).abs() < tolerance)
+    }
+
+    #[test]
+    fn interior_edge_and_corner_optima_of_a_quadratic_are_found_exactly() {
+        let bounds = BoxBounds::coded(2);
+        // Interior: the bowl's centre.
+        let interior = optimise(&bowl([0.3, -0.2]), true, Goal::Minimise, &bounds, 0);
+        assert!(close(&interior.x, &[0.3, -0.2], 1e-12), "{interior:?}");
+        // Edge: centre beyond x1 = 1; on that edge ∂/∂x2 = 0 gives x2 = -0.2 - 0.25 (1 - 1.6)/... solve directly.
+        let f = bowl([1.6, -0.2]);
+        let edge = optimise(&f, true, Goal::Minimise, &bounds, 0);
+        assert!(
+            (edge.x[0] - 1.0).abs() < 1e-12 && edge.x[1].abs() < 1.0 - 1e-6,
+            "{edge:?}"
+        );
+        // On x1 = 1: 4 (x2 + 0.2) + 0.5 (1 - 1.6) = 0 → x2 = -0.2 + 0.075.
+        assert!((edge.x[1] - (-0.125)).abs() < 1e-12, "{edge:?}");
+        // Corner: a saddle maximised on the box lands on a corner.
+        let saddle = |x: &[f64]| x[0] * x[0] - x[1] * x[1] + 0.1 * x[0] + 0.2 * x[1];
+        let corner = optimise(&saddle, true, Goal::Maximise, &bounds, 0);
+        assert!(
+            close(&corner.x, &[1.0, 0.0], 1e-12) || corner.x[0].abs() == 1.0,
+            "{corner:?}"
+        );
+        assert!((corner.value - saddle(&corner.x)).abs() < 1e-15);
+        // Brute force over a grid agrees.
+        let mut best = f64::NEG_INFINITY;
+        for i in 0..=200 {
+            for j in 0..=200 {
+                best = best.max(saddle(&[-1.0 + i as f64 / 100.0, -1.0 + j as f64 / 100.0]));
+            }
+        }
+        assert!(corner.value >= best - 1e-12);
+    }
+
+    #[test]
+    fn a_concave_maximum_on_a_corner() {
+        let f = |x: &[f64]| -(x[0] - 2.0).powi(2) - (x[1] + 3.0).powi(2);
+        let found = optimise(&f, true, Goal::Maximise, &BoxBounds::coded(2), 0);
+        assert!(close(&found.x, &[1.0, -1.0], 1e-12), "{found:?}");
+    }
+
+    #[test]
+    fn multistart_finds_the_global_minimum_of_a_cubic() {
+        // Two local minima in the box; the deeper one is at x ≈ -0.87.
+        let f = |x: &[f64]| x[0].powi(4) - 1.5 * x[0] * x[0] + 0.3 * x[0] + x[1] * x[1];
+        let found = optimise(&f, false, Goal::Minimise, &BoxBounds::coded(2), 3);
+        let mut best = f64::INFINITY;
+        for i in 0..=20000 {
+            best = best.min(f(&[-1.0 + i as f64 / 10000.0, 0.0]));
+        }
+        assert!(found.value <= best + 1e-8, "{found:?} vs {best}");
+        assert!(found.x[0] < 0.0);
+    }
+}

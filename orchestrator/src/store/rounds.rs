@@ -1,0 +1,359 @@
+//! Rounds of a study and what the metamodel stage concluded from each.
+
+use std::path::Path;
+
+use orch_metamodel::{FactorRange, Fit, Optimum, Spread};
+use sqlx::Row;
+
+use super::{query_error, Store, StoreError};
+use crate::study::{DesignPoint, Study};
+
+/// A fitted (or unfittable) surface of one response, to record.
+#[derive(Debug, Clone)]
+pub struct FitRecord {
+    /// Response name.
+    pub response: String,
+    /// Basis name (`legendre`, `monomial`).
+    pub basis: String,
+    /// Order.
+    pub order: u32,
+    /// Runs available.
+    pub runs: usize,
+    /// The fit, or why there is none.
+    pub result: Result<Fit, String>,
+}
+
+/// Everything the analysis of one round decided, recorded at once.
+#[derive(Debug, Clone)]
+pub struct RoundRecord {
+    /// The round analysed.
+    pub round: i64,
+    /// One per response.
+    pub fits: Vec<FitRecord>,
+    /// `(response, goal, optimum in coded units, natural values)`.
+    pub optimum: Option<(String, &'static str, Optimum, Vec<f64>)>,
+    /// `(response, spread, seed)` at the optimum.
+    pub uncertainty: Option<(String, Spread, u64)>,
+    /// `next_round`, `converged`, `last_round` or `no_optimum`.
+    pub decision: &'static str,
+    /// Why, for people.
+    pub note: String,
+    /// The next round's box and points, when there is one.
+    pub next: Option<(Vec<FactorRange>, Vec<DesignPoint>)>,
+}
+
+/// A stored fit.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StoredFit {
+    /// Response.
+    pub response: String,
+    /// Basis.
+    pub basis: String,
+    /// Order.
+    pub order: i64,
+    /// Runs.
+    pub runs: i64,
+    /// ANOVA R².
+    pub r2: Option<f64>,
+    /// Adjusted R².
+    pub adjusted_r2: Option<f64>,
+    /// σ_cross, %.
+    pub sigma_cross: Option<f64>,
+    /// 1 − (σ_cross/100)².
+    pub r2_cross: Option<f64>,
+    /// PRESS.
+    pub press: Option<f64>,
+    /// Why there is no fit.
+    pub error: Option<String>,
+    /// `(name, coefficient, standard error, t)`.
+    pub terms: Vec<(String, f64, Option<f64>, Option<f64>)>,
+}
+
+/// A stored round with its conclusions.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StoredRound {
+    /// Round number.
+    pub round: i64,
+    /// Its box, per factor.
+    pub ranges: Vec<FactorRange>,
+    /// Its fits.
+    pub fits: Vec<StoredFit>,
+    /// `(response, goal, value, natural values per factor)`.
+    pub optimum: Option<(String, String, f64, Vec<f64>)>,
+    /// Spread at the optimum.
+    pub uncertainty: Option<Spread>,
+    /// `(decision, note)`.
+    pub decision: Option<(String, String)>,
+}
+
+impl Store {
+    /// The latest round that has points.
+    pub async fn latest_round(&self, study_id: i64) -> Result<i64, StoreError> {
+        sqlx::query_scalar("SELECT COALESCE(MAX(round), 0) FROM points WHERE study_id = ?")
+            .bind(study_id)
+            .fetch_one(&self.pool)
+            .await
+            .map_err(query_error("find the latest round"))
+    }
+
+    /// True when the analysis of `round` was recorded.
+    pub async fn round_decided(&self, study_id: i64, round: i64) -> Result<bool, StoreError> {
+        let n: i64 =
+            sqlx::query_scalar("SELECT COUNT(*) FROM proposals WHERE study_id = ? AND round = ?")
+                .bind(study_id)
+                .bind(round)
+                .fetch_one(&self.pool)
+                .await
+                .map_err(query_error("read a round's decision"))?;
+        Ok(n > 0)
+    }
+
+    /// The box of `round`.
+    pub async fn round_ranges(
+        &self,
+        study_id: i64,
+        round: i64,
+    ) -> Result<Vec<FactorRange>, StoreError> {
+        let rows: Vec<(f64, f64)> = sqlx::query_as(
+            "SELECT min, max FROM round_factors WHERE study_id = ? AND round = ? ORDER BY idx",
+        )
+        .bind(study_id)
+        .bind(round)
+        .fetch_all(&self.pool)
+        .await
+        .map_err(query_error("read a round's box"))?;
+        Ok(rows
+            .into_iter()
+            .map(|(min, max)| FactorRange { min, max })
+            .collect())
+    }
+
+    /// Records a round's fits, optimum, spread and decision, and the next round's box,
+    /// points and jobs, in one transaction.
+    pub async fn record_round(
+        &self,
+        study: &Study,
+        study_id: i64,
+        record: &RoundRecord,
+        runs_dir: &Path,
+    ) -> Result<(), StoreError> {
+        let mut tx = self
+            .pool
+            .begin()
+            .await
+            .map_err(query_error("start a transaction"))?;
+        let round = record.round;
+        for fit in &record.fits {
+            let (quality, error) = match &fit.result {
+                Ok(f) => (Some(&f.quality), None),
+                Err(e) => (None, Some(e.clone())),
+            };
+            let terms = fit
+                .result
+                .as_ref()
+                .map(|f| f.coefficients.len())
+                .unwrap_or(0);
+            let fit_id: i64 = sqlx::query(
+                "INSERT INTO fits (study_id, round, response, basis, ord, runs, terms, r2, adjusted_r2, sigma_cross,
+                                   r2_cross, press, residual_std, error)
+                 VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?) RETURNING id",
+            )
+            .bind(study_id)
+            .bind(round)
+            .bind(&fit.response)
+            .bind(&fit.basis)
+            .bind(fit.order as i64)
+            .bind(fit.runs as i64)
+            .bind(terms as i64)
+            .bind(quality.map(|q| q.r2))
+            .bind(quality.and_then(|q| q.adjusted_r2))
+            .bind(quality.and_then(|q| q.sigma_cross_percent))
+            .bind(quality.and_then(|q| q.r2_cross))
+            .bind(quality.and_then(|q| q.press))
+            .bind(quality.and_then(|q| q.residual_std))
+            .bind(error)
+            .fetch_one(&mut *tx)
+            .await
+            .map_err(query_error("record a fit"))?
+            .get(0);
+            if let Ok(f) = &fit.result {
+                for (idx, (name, coefficient)) in f.names.iter().zip(&f.coefficients).enumerate() {
+                    sqlx::query("INSERT INTO fit_terms (fit_id, idx, name, coefficient, std_error, t_value) VALUES (?, ?, ?, ?, ?, ?)")
+                        .bind(fit_id)
+                        .bind(idx as i64)
+                        .bind(name)
+                        .bind(coefficient)
+                        .bind(f.standard_errors.as_ref().map(|s| s[idx]))
+                        .bind(f.t_values.as_ref().map(|t| t[idx]).filter(|t| t.is_finite()))
+                        .execute(&mut *tx)
+                        .await
+                        .map_err(query_error("record a fit's terms"))?;
+                }
+            }
+        }
+        if let Some((response, goal, optimum, natural)) = &record.optimum {
+            sqlx::query("INSERT INTO optima (study_id, round, response, goal, value, exact) VALUES (?, ?, ?, ?, ?, ?)")
+                .bind(study_id)
+                .bind(round)
+                .bind(response)
+                .bind(goal)
+                .bind(optimum.value)
+                .bind(optimum.exact)
+                .execute(&mut *tx)
+                .await
+                .map_err(query_error("record an optimum"))?;
+            for (idx, (coded, natural)) in optimum.x.iter().zip(natural).enumerate() {
+                sqlx::query("INSERT INTO optimum_values (study_id, round, factor_idx, coded, natural) VALUES (?, ?, ?, ?, ?)")
+                    .bind(study_id)
+                    .bind(round)
+                    .bind(idx as i64)
+                    .bind(coded)
+                    .bind(natural)
+                    .execute(&mut *tx)
+                    .await
+                    .map_err(query_error("record an optimum"))?;
+            }
+        }
+        if let Some((response, spread, seed)) = &record.uncertainty {
+            sqlx::query(
+                "INSERT INTO uncertainty (study_id, round, response, samples, seed, mean, std, q025, q975, q05, q95)
+                 VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+            )
+            .bind(study_id)
+            .bind(round)
+            .bind(response)
+            .bind(spread.samples as i64)
+            .bind(*seed as i64)
+            .bind(spread.mean)
+            .bind(spread.std)
+            .bind(spread.q025)
+            .bind(spread.q975)
+            .bind(spread.q05)
+            .bind(spread.q95)
+            .execute(&mut *tx)
+            .await
+            .map_err(query_error("record an uncertainty"))?;
+        }
+        sqlx::query("INSERT INTO proposals (study_id, round, decision, note) VALUES (?, ?, ?, ?)")
+            .bind(study_id)
+            .bind(round)
+            .bind(record.decision)
+            .bind(&record.note)
+            .execute(&mut *tx)
+            .await
+            .map_err(query_error("record a decision"))?;
+        if let Some((ranges, points)) = &record.next {
+            for (idx, range) in ranges.iter().enumerate() {
+                sqlx::query("INSERT INTO round_factors (study_id, round, idx, min, max) VALUES (?, ?, ?, ?, ?)")
+                    .bind(study_id)
+                    .bind(round + 1)
+                    .bind(idx as i64)
+                    .bind(range.min)
+                    .bind(range.max)
+                    .execute(&mut *tx)
+                    .await
+                    .map_err(query_error("record the next round's box"))?;
+            }
+            super::insert_points_and_jobs(&mut tx, study, study_id, round + 1, points, runs_dir)
+                .await?;
+        }
+        tx.commit()
+            .await
+            .map_err(query_error("commit a round's analysis"))
+    }
+
+    /// Every round of a study with what was concluded from it.
+    pub async fn rounds(&self, study_id: i64) -> Result<Vec<StoredRound>, StoreError> {
+        let latest = self.latest_round(study_id).await?;
+        let mut rounds = Vec::new();
+        for round in 0..=latest {
+            let ranges = self.round_ranges(study_id, round).await?;
+            let fit_rows = sqlx::query(
+                "SELECT id, response, basis, ord, runs, r2, adjusted_r2, sigma_cross, r2_cross, press, error
+                 FROM fits WHERE study_id = ? AND round = ? ORDER BY id",
+            )
+            .bind(study_id)
+            .bind(round)
+            .fetch_all(&self.pool)
+            .await
+            .map_err(query_error("read fits"))?;
+            let mut fits = Vec::new();
+            for row in fit_rows {
+                let id: i64 = row.get(0);
+                let terms: Vec<(String, f64, Option<f64>, Option<f64>)> =
+                    sqlx::query_as("SELECT name, coefficient, std_error, t_value FROM fit_terms WHERE fit_id = ? ORDER BY idx")
+                        .bind(id)
+                        .fetch_all(&self.pool)
+                        .await
+                        .map_err(query_error("read a fit's terms"))?;
+                fits.push(StoredFit {
+                    response: row.get(1),
+                    basis: row.get(2),
+                    order: row.get(3),
+                    runs: row.get(4),
+                    r2: row.get(5),
+                    adjusted_r2: row.get(6),
+                    sigma_cross: row.get(7),
+                    r2_cross: row.get(8),
+                    press: row.get(9),
+                    error: row.get(10),
+                    terms,
+                });
+            }
+            let optimum: Option<(String, String, f64)> = sqlx::query_as(
+                "SELECT response, goal, value FROM optima WHERE study_id = ? AND round = ?",
+            )
+            .bind(study_id)
+            .bind(round)
+            .fetch_optional(&self.pool)
+            .await
+            .map_err(query_error("read an optimum"))?;
+            let optimum = match optimum {
+                None => None,
+                Some((response, goal, value)) => {
+                    let natural: Vec<f64> = sqlx::query_scalar(
+                        "SELECT natural FROM optimum_values WHERE study_id = ? AND round = ? ORDER BY factor_idx",
+                    )
+                    .bind(study_id)
+                    .bind(round)
+                    .fetch_all(&self.pool)
+                    .await
+                    .map_err(query_error("read an optimum"))?;
+                    Some((response, goal, value, natural))
+                }
+            };
+            let uncertainty = sqlx::query("SELECT samples, mean, std, q025, q975, q05, q95 FROM uncertainty WHERE study_id = ? AND round = ?")
+                .bind(study_id)
+                .bind(round)
+                .fetch_optional(&self.pool)
+                .await
+                .map_err(query_error("read an uncertainty"))?
+                .map(|row| Spread {
+                    samples: row.get::<i64, _>(0) as usize,
+                    mean: row.get(1),
+                    std: row.get(2),
+                    q025: row.get(3),
+                    q975: row.get(4),
+                    q05: row.get(5),
+                    q95: row.get(6),
+                });
+            let decision: Option<(String, String)> = sqlx::query_as(
+                "SELECT decision, note FROM proposals WHERE study_id = ? AND round = ?",
+            )
+            .bind(study_id)
+            .bind(round)
+            .fetch_optional(&self.pool)
+            .await
+            .map_err(query_error("read a decision"))?;
+            rounds.push(StoredRound {
+                round,
+                ranges,
+                fits,
+                optimum,
+                uncertainty,
+                decision,
+            });
+        }
+        Ok(rounds)
+    }
+}

@@ -18,6 +18,6 @@ mod scaling;
 pub use basis::{Basis, BasisKind};
 pub use design::{CentralCompositeAlpha, Design, DesignError, DesignKind};
 pub use fit::{Fit, FitError, Quality, TestQuality};
-pub use optimise::{optimise, BoxBounds, Goal, Optimum};
+pub use optimise::{optimise, optimise_subject_to, BoxBounds, Constraint, Goal, Optimum};
 pub use propagate::{propagate, Distribution, Spread};
 pub use scaling::FactorRange;

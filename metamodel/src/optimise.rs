@@ -199,6 +199,75 @@ pub fn optimise(
     }
 }
 
+/// A bound on another function of the factors (a response's surface).
+pub struct Constraint<'a> {
+    /// The constrained function.
+    pub g: &'a dyn Fn(&[f64]) -> f64,
+    /// Smallest allowed value.
+    pub min: Option<f64>,
+    /// Largest allowed value.
+    pub max: Option<f64>,
+}
+
+impl Constraint<'_> {
+    /// How far `x` is outside the allowed range (0 inside).
+    pub fn violation(&self, x: &[f64]) -> f64 {
+        let value = (self.g)(x);
+        let below = self.min.map_or(0.0, |m| (m - value).max(0.0));
+        let above = self.max.map_or(0.0, |m| (value - m).max(0.0));
+        below + above
+    }
+}
+
+/// Optimum of `f` subject to `constraints` on `bounds`, by multistart descent on `f`
+/// plus a quadratic penalty on violations; without constraints it is [`optimise`].
+/// Returns the optimum and whether it satisfies every constraint (within 1e-6 of
+/// each constraint's scale).
+pub fn optimise_subject_to(
+    f: &dyn Fn(&[f64]) -> f64,
+    quadratic: bool,
+    constraints: &[Constraint],
+    goal: Goal,
+    bounds: &BoxBounds,
+    seed: u64,
+) -> (Optimum, bool) {
+    if constraints.is_empty() {
+        return (optimise(f, quadratic, goal, bounds, seed), true);
+    }
+    let sign = match goal {
+        Goal::Minimise => 1.0,
+        Goal::Maximise => -1.0,
+    };
+    let centre: Vec<f64> = (0..bounds.lower.len())
+        .map(|i| 0.5 * (bounds.lower[i] + bounds.upper[i]))
+        .collect();
+    let scale = f(&centre).abs().max(1e-12);
+    let constraint_scales: Vec<f64> = constraints
+        .iter()
+        .map(|c| (c.g)(&centre).abs().max(1e-12))
+        .collect();
+    let penalised = |x: &[f64]| {
+        let penalty: f64 = constraints
+            .iter()
+            .zip(&constraint_scales)
+            .map(|(c, s)| (c.violation(x) / s).powi(2))
+            .sum();
+        sign * f(x) / scale + 1e6 * penalty
+    };
+    let found = multistart(&penalised, bounds, seed);
+    let feasible = constraints
+        .iter()
+        .zip(&constraint_scales)
+        .all(|(c, s)| c.violation(&found.x) <= 1e-6 * s.max(1.0));
+    (
+        Optimum {
+            value: f(&found.x),
+            ..found
+        },
+        feasible,
+    )
+}
+
 /// Best local minimum of projected gradient descent from corners, centre and random starts.
 pub fn multistart(f: &dyn Fn(&[f64]) -> f64, bounds: &BoxBounds, seed: u64) -> Optimum {
     let k = bounds.lower.len();
@@ -338,6 +407,43 @@ mod tests {
         let f = |x: &[f64]| -(x[0] - 2.0).powi(2) - (x[1] + 3.0).powi(2);
         let found = optimise(&f, true, Goal::Maximise, &BoxBounds::coded(2), 0);
         assert!(close(&found.x, &[1.0, -1.0], 1e-12), "{found:?}");
+    }
+
+    #[test]
+    fn a_constrained_maximum_lies_on_the_constraint() {
+        // Maximise x + y subject to x² + y² ≤ 0.5: the optimum is (0.5, 0.5).
+        let f = |x: &[f64]| x[0] + x[1];
+        let g = |x: &[f64]| x[0] * x[0] + x[1] * x[1];
+        let constraint = Constraint {
+            g: &g,
+            min: None,
+            max: Some(0.5),
+        };
+        let (found, feasible) = optimise_subject_to(
+            &f,
+            true,
+            &[constraint],
+            Goal::Maximise,
+            &BoxBounds::coded(2),
+            1,
+        );
+        assert!(feasible, "{found:?}");
+        assert!(close(&found.x, &[0.5, 0.5], 1e-3), "{found:?}");
+        // An impossible constraint is reported as infeasible.
+        let impossible = Constraint {
+            g: &g,
+            min: Some(5.0),
+            max: None,
+        };
+        let (_, feasible) = optimise_subject_to(
+            &f,
+            true,
+            &[impossible],
+            Goal::Maximise,
+            &BoxBounds::coded(2),
+            1,
+        );
+        assert!(!feasible);
     }
 
     #[test]

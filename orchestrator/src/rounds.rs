@@ -1,18 +1,23 @@
-//! The metamodel stage: after a round's jobs are final, fit a surface per response,
-//! find the objective's optimum in the round's box, propagate the uncertain factors
-//! through the surface at the optimum, and decide on the next round (a box
-//! `shrink` times as wide around the optimum) or stop. All of it is recorded in one
-//! transaction with the next round's jobs, so a crash either loses the whole analysis
-//! (and it is redone) or none of it.
+//! The metamodel stage: after a round's jobs are final, fit a surface per response on
+//! the design points (and measure it on the held-out test points), find the
+//! objective's optimum in the round's box subject to its constraints, propagate the
+//! uncertain factors through the objective's surfaces at the optimum, and decide on
+//! the next round (a box `shrink` times as wide around the optimum) or stop. All of it
+//! is recorded in one transaction with the next round's jobs, so a crash either loses
+//! the whole analysis (and it is redone) or none of it.
 
+use std::collections::HashMap;
 use std::path::Path;
 
 use orch_metamodel::optimise::BoxBounds;
 use orch_metamodel::propose::{converged, shrink_around};
-use orch_metamodel::{optimise, propagate, Basis, BasisKind, Design, FactorRange, Fit, Goal};
+use orch_metamodel::{
+    optimise_subject_to, propagate, Basis, BasisKind, Constraint, Design, Distribution,
+    FactorRange, Fit, Goal,
+};
 
 use crate::store::{FitRecord, JobState, RoundRecord, Store, StoreError};
-use crate::study::{DesignPoint, Study};
+use crate::study::{DesignPoint, Objective, Study};
 
 /// What happened after a round.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -23,12 +28,17 @@ pub enum Advance {
     Done(String),
 }
 
-/// The responses fitted after each round: the study's list, the objective, or a default.
+/// The responses fitted after each round: the objective's, then the study's list; a
+/// default pair when the study names none.
 pub fn fitted_responses(study: &Study) -> Vec<String> {
-    let mut names = study.responses.clone();
-    if let Some(objective) = &study.objective {
-        if !names.contains(&objective.response) {
-            names.insert(0, objective.response.clone());
+    let mut names = study
+        .objective
+        .as_ref()
+        .map(Objective::responses)
+        .unwrap_or_default();
+    for response in &study.responses {
+        if !names.contains(response) {
+            names.push(response.clone());
         }
     }
     if names.is_empty() {
@@ -48,6 +58,23 @@ pub async fn advance(
     if store.round_decided(study_id, round).await? {
         return Ok(Advance::Done("every round is analysed".into()));
     }
+    let round_points: std::collections::HashSet<i64> = store
+        .points(study_id)
+        .await?
+        .into_iter()
+        .filter(|p| p.round == round)
+        .map(|p| p.id)
+        .collect();
+    if store
+        .jobs(study_id)
+        .await?
+        .iter()
+        .any(|j| round_points.contains(&j.point_id) && !j.state().is_final())
+    {
+        return Ok(Advance::Done(format!(
+            "round {round} still has unfinished jobs"
+        )));
+    }
     let record = analyse(store, study_id, study, round).await?;
     let outcome = match record.next {
         Some(_) => Advance::NextRound(round + 1),
@@ -59,6 +86,55 @@ pub async fn advance(
     Ok(outcome)
 }
 
+/// Coded points and observed values of one response over the succeeded jobs of a round.
+struct Observed {
+    design: (Vec<Vec<f64>>, Vec<f64>),
+    test: (Vec<Vec<f64>>, Vec<f64>),
+}
+
+async fn observed(
+    store: &Store,
+    study_id: i64,
+    round: i64,
+    responses: &[String],
+) -> Result<HashMap<String, Observed>, StoreError> {
+    let points: HashMap<i64, (Vec<f64>, bool)> = store
+        .points(study_id)
+        .await?
+        .into_iter()
+        .filter(|p| p.round == round)
+        .map(|p| (p.id, (p.coded, p.purpose == "test")))
+        .collect();
+    let values = store.responses(study_id).await?;
+    let jobs: Vec<_> = store
+        .jobs(study_id)
+        .await?
+        .into_iter()
+        .filter(|j| points.contains_key(&j.point_id) && j.state() == JobState::Succeeded)
+        .collect();
+    let mut out = HashMap::new();
+    for response in responses {
+        let mut observed = Observed {
+            design: (vec![], vec![]),
+            test: (vec![], vec![]),
+        };
+        for job in &jobs {
+            if let Some(value) = values.get(&job.id).and_then(|v| v.get(response)) {
+                let (coded, is_test) = &points[&job.point_id];
+                let set = if *is_test {
+                    &mut observed.test
+                } else {
+                    &mut observed.design
+                };
+                set.0.push(coded.clone());
+                set.1.push(*value);
+            }
+        }
+        out.insert(response.clone(), observed);
+    }
+    Ok(out)
+}
+
 async fn analyse(
     store: &Store,
     study_id: i64,
@@ -67,45 +143,32 @@ async fn analyse(
 ) -> Result<RoundRecord, StoreError> {
     let ranges = store.round_ranges(study_id, round).await?;
     let limits: Vec<FactorRange> = study.factors.iter().map(|f| f.range).collect();
-    let points: std::collections::HashMap<i64, Vec<f64>> = store
-        .points(study_id)
-        .await?
-        .into_iter()
-        .filter(|p| p.round == round)
-        .map(|p| (p.id, p.coded))
-        .collect();
-    let responses = store.responses(study_id).await?;
-    let jobs: Vec<_> = store
-        .jobs(study_id)
-        .await?
-        .into_iter()
-        .filter(|j| points.contains_key(&j.point_id) && j.state() == JobState::Succeeded)
-        .collect();
     let names: Vec<String> = study.factors.iter().map(|f| f.name.clone()).collect();
     let k = names.len();
     let basis_name = match study.metamodel.basis {
         BasisKind::Legendre => "legendre",
         BasisKind::Monomial => "monomial",
     };
+    let responses = fitted_responses(study);
+    let data = observed(store, study_id, round, &responses).await?;
     let mut fits = Vec::new();
-    for response in fitted_responses(study) {
-        let (x, y): (Vec<Vec<f64>>, Vec<f64>) = jobs
-            .iter()
-            .filter_map(|j| {
-                responses
-                    .get(&j.id)?
-                    .get(&response)
-                    .map(|v| (points[&j.point_id].clone(), *v))
-            })
-            .unzip();
+    for response in &responses {
+        let observed = &data[response];
         let basis = Basis::complete(study.metamodel.basis, k, study.metamodel.order);
-        let result = Fit::new(basis, &names, &x, &y).map_err(|e| e.to_string());
+        let result = Fit::new(basis, &names, &observed.design.0, &observed.design.1)
+            .map_err(|e| e.to_string());
+        let test = result
+            .as_ref()
+            .ok()
+            .and_then(|fit| fit.test(&observed.test.0, &observed.test.1))
+            .map(|quality| (observed.test.1.len(), quality));
         fits.push(FitRecord {
-            response,
+            response: response.clone(),
             basis: basis_name.into(),
             order: study.metamodel.order,
-            runs: y.len(),
+            runs: observed.design.1.len(),
             result,
+            test,
         });
     }
 
@@ -122,41 +185,76 @@ async fn analyse(
         record.note = "the study has no objective".into();
         return Ok(record);
     };
-    let fit = match &record
+    let surfaces: HashMap<String, Fit> = record
         .fits
         .iter()
-        .find(|f| f.response == objective.response)
-        .expect("the objective is fitted")
-        .result
+        .filter_map(|f| {
+            f.result
+                .as_ref()
+                .ok()
+                .map(|fit| (f.response.clone(), fit.clone()))
+        })
+        .collect();
+    if let Some(missing) = objective
+        .responses()
+        .into_iter()
+        .find(|r| !surfaces.contains_key(r))
     {
-        Ok(fit) => fit.clone(),
-        Err(e) => {
-            record.decision = "no_optimum";
-            record.note = format!("no surface for {}: {e}", objective.response);
-            return Ok(record);
-        }
+        let why = record
+            .fits
+            .iter()
+            .find(|f| f.response == missing)
+            .and_then(|f| f.result.as_ref().err().cloned())
+            .unwrap_or_default();
+        record.decision = "no_optimum";
+        record.note = format!("no surface for {missing}: {why}");
+        return Ok(record);
+    }
+    let value = |x: &[f64]| {
+        objective
+            .terms
+            .iter()
+            .map(|(r, w)| w * surfaces[r].predict(x))
+            .sum::<f64>()
     };
 
     // Uncertain factors are held at their mean while the design factors are optimised.
     let mut bounds = BoxBounds::coded(k);
-    let uncertain: Vec<usize> = study
+    let uncertain: Vec<(usize, Distribution)> = study
         .uncertainty
         .iter()
-        .flat_map(|u| u.parameters.iter().map(|(i, _)| *i))
+        .flat_map(|u| u.parameters.iter().copied())
         .collect();
-    if let Some(u) = &study.uncertainty {
-        for (index, distribution) in &u.parameters {
-            let centre = ranges[*index]
-                .to_coded(mean_of(distribution))
-                .clamp(-1.0, 1.0);
-            bounds.lower[*index] = centre;
-            bounds.upper[*index] = centre;
-        }
+    for (index, distribution) in &uncertain {
+        let centre = ranges[*index]
+            .to_coded(mean_of(distribution))
+            .clamp(-1.0, 1.0);
+        bounds.lower[*index] = centre;
+        bounds.upper[*index] = centre;
     }
-    let predict = |x: &[f64]| fit.predict(x);
-    let optimum = optimise(
-        &predict,
+    // One closure per constrained surface (all of one type), then the constraints on them.
+    let predictors: Vec<_> = objective
+        .constraints
+        .iter()
+        .map(|(response, _, _)| {
+            let fit = &surfaces[response];
+            move |x: &[f64]| fit.predict(x)
+        })
+        .collect();
+    let constraints: Vec<Constraint> = objective
+        .constraints
+        .iter()
+        .zip(&predictors)
+        .map(|((_, min, max), g)| Constraint {
+            g,
+            min: *min,
+            max: *max,
+        })
+        .collect();
+    let (optimum, feasible) = optimise_subject_to(
+        &value,
         study.metamodel.order <= 2,
+        &constraints,
         objective.goal,
         &bounds,
         study.seed,
@@ -167,24 +265,31 @@ async fn analyse(
         .zip(&ranges)
         .map(|(c, r)| r.to_natural(*c))
         .collect();
+    let objective_name = objective.name();
 
     if let Some(u) = &study.uncertainty {
-        let inputs: Vec<_> = u.parameters.iter().map(|(_, d)| *d).collect();
+        let inputs: Vec<Distribution> = u.parameters.iter().map(|(_, d)| *d).collect();
         let at_optimum = |sample: &[f64]| {
             let mut x = optimum.x.clone();
-            for ((index, _), value) in u.parameters.iter().zip(sample) {
-                x[*index] = ranges[*index].to_coded(*value);
+            for ((index, _), v) in u.parameters.iter().zip(sample) {
+                x[*index] = ranges[*index].to_coded(*v);
             }
-            fit.predict(&x)
+            value(&x)
         };
         if let Ok(spread) = propagate(&at_optimum, &inputs, u.samples, u.seed) {
-            record.uncertainty = Some((objective.response.clone(), spread, u.seed));
+            record.uncertainty = Some((objective_name.clone(), spread, u.seed));
         }
     }
     let goal = match objective.goal {
         Goal::Minimise => "minimise",
         Goal::Maximise => "maximise",
     };
+    record.optimum = Some((objective_name, goal, optimum.clone(), natural.clone()));
+    if !feasible {
+        record.decision = "no_optimum";
+        record.note = "no point of the box satisfies the objective's constraints; the best compromise is shown".into();
+        return Ok(record);
+    }
 
     let previous = if round > 0 {
         store
@@ -198,50 +303,158 @@ async fn analyse(
     };
     if round + 1 >= study.rounds as i64 {
         record.note = format!("round {} of {} was the last", round + 1, study.rounds);
-    } else if let Some((_, _, value, _)) =
+    } else if let Some((_, _, before, _)) =
         previous.filter(|p| converged(p.2, optimum.value, study.metamodel.tolerance))
     {
         record.decision = "converged";
         record.note = format!(
-            "the predicted optimum moved from {value:.6} to {:.6}, less than {} %",
+            "the predicted optimum moved from {before:.6} to {:.6}, less than {} %",
             optimum.value,
             study.metamodel.tolerance * 100.0
         );
     } else {
         // Design factors zoom in around the optimum; uncertain ones keep their range.
         let mut next_ranges = shrink_around(&natural, &ranges, &limits, study.metamodel.shrink);
-        for &index in &uncertain {
-            next_ranges[index] = ranges[index];
+        for (index, _) in &uncertain {
+            next_ranges[*index] = ranges[*index];
         }
         let design = Design::build(&study.design, k).expect("the design was built for round 0");
-        let next_points = design
-            .points
-            .into_iter()
-            .map(|coded| DesignPoint {
-                natural: coded
-                    .iter()
-                    .zip(&next_ranges)
-                    .map(|(c, r)| r.to_natural(*c))
-                    .collect(),
-                coded,
-            })
-            .collect();
+        let to_point = |coded: Vec<f64>| DesignPoint {
+            natural: coded
+                .iter()
+                .zip(&next_ranges)
+                .map(|(c, r)| r.to_natural(*c))
+                .collect(),
+            coded,
+        };
+        let next_points = design.points.into_iter().map(to_point).collect();
+        let next_tests = study.test_points(round + 1, &next_ranges);
         record.decision = "next_round";
         record.note = format!(
             "round {} in a box {} times as wide around the optimum",
             round + 2,
             study.metamodel.shrink
         );
-        record.next = Some((next_ranges, next_points));
+        record.next = Some((next_ranges, next_points, next_tests));
     }
-    record.optimum = Some((objective.response.clone(), goal, optimum, natural));
     Ok(record)
 }
 
-fn mean_of(distribution: &orch_metamodel::Distribution) -> f64 {
+fn mean_of(distribution: &Distribution) -> f64 {
     match *distribution {
-        orch_metamodel::Distribution::Normal { mean, .. } => mean,
-        orch_metamodel::Distribution::Uniform { low, high } => 0.5 * (low + high),
-        orch_metamodel::Distribution::LogNormal { mu, sigma } => (mu + 0.5 * sigma * sigma).exp(),
+        Distribution::Normal { mean, .. } => mean,
+        Distribution::Uniform { low, high } => 0.5 * (low + high),
+        Distribution::LogNormal { mu, sigma } => (mu + 0.5 * sigma * sigma).exp(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::path::Path;
+
+    use super::*;
+    use crate::store::JobResults;
+
+    /// Two factors, a constrained objective, held-out test points, two rounds.
+    const STUDY: &str = "\
+name: surfaces
+solver: liggghts
+factors:
+  - {name: outlet_diameter, min: 0.020, max: 0.028}
+  - {name: amplitude, min: 0.0, max: 0.0008}
+design: {type: central_composite, alpha: face_centred}
+objective:
+  weights: {discharge_rate: 1.0}
+  goal: maximise
+  constraints: [{response: segregation_ratio, max: 1.2}]
+metamodel: {test_points: 4}
+rounds: 2
+";
+
+    /// Known surfaces in coded units: the rate peaks at (0.5, 0); segregation grows with x0.
+    fn responses(coded: &[f64]) -> Vec<(String, f64)> {
+        vec![
+            (
+                "discharge_rate".into(),
+                1.0 - (coded[0] - 0.5).powi(2) - coded[1].powi(2),
+            ),
+            ("segregation_ratio".into(), 1.0 + coded[0]),
+        ]
+    }
+
+    #[tokio::test]
+    async fn a_round_with_known_surfaces_gives_the_constrained_optimum_and_the_next_box() {
+        let dir = tempfile::tempdir().unwrap();
+        let store = Store::open(dir.path()).await.unwrap();
+        let study = Study::from_text(Path::new("surfaces.yaml"), STUDY, None).unwrap();
+        let id = store
+            .insert_study(&study, Path::new("surfaces.yaml"), &dir.path().join("runs"))
+            .await
+            .unwrap();
+        let points: HashMap<i64, Vec<f64>> = store
+            .points(id)
+            .await
+            .unwrap()
+            .into_iter()
+            .map(|p| (p.id, p.coded))
+            .collect();
+        let jobs = store.jobs(id).await.unwrap();
+        assert_eq!(jobs.len(), 9 + 4);
+        assert_eq!(jobs.iter().filter(|j| j.name.starts_with('t')).count(), 4);
+        for job in &jobs {
+            store.mark_rendered(job.id).await.unwrap();
+            store.mark_running(job.id, "1:1", 0.0).await.unwrap();
+            let results = JobResults {
+                responses: responses(&points[&job.point_id]),
+                series: vec![],
+            };
+            store.mark_succeeded(job.id, 0, &results).await.unwrap();
+        }
+
+        let advanced = advance(&store, id, &study, &dir.path().join("runs/surfaces"))
+            .await
+            .unwrap();
+        assert_eq!(advanced, Advance::NextRound(1));
+        let rounds = store.rounds(id).await.unwrap();
+        let first = &rounds[0];
+        let rate = first
+            .fits
+            .iter()
+            .find(|f| f.response == "discharge_rate")
+            .unwrap();
+        assert!(
+            (rate.r2.unwrap() - 1.0).abs() < 1e-12,
+            "an exact quadratic is fitted exactly"
+        );
+        assert_eq!(rate.runs, 9);
+        assert_eq!(rate.test_runs, 4);
+        assert!(rate.sigma_test.unwrap() < 1e-6, "{:?}", rate.sigma_test);
+        // The unconstrained maximum (x0 = 0.5) violates R1/R2 ≤ 1.2; the optimum sits on x0 = 0.2.
+        let (name, goal, value, natural) = first.optimum.clone().unwrap();
+        assert_eq!(
+            (name.as_str(), goal.as_str()),
+            ("discharge_rate", "maximise")
+        );
+        let coded_x0 = (natural[0] - 0.024) / 0.004;
+        assert!((coded_x0 - 0.2).abs() < 1e-3, "x0 = {coded_x0}");
+        assert!((natural[1] - 0.0004).abs() < 1e-6, "{natural:?}");
+        assert!((value - (1.0 - 0.09)).abs() < 1e-3, "{value}");
+        // The next round: half as wide around the optimum, with its own test points.
+        assert_eq!(first.decision.as_ref().unwrap().0, "next_round");
+        let next = &rounds[1].ranges;
+        assert!(((next[0].min + next[0].max) / 2.0 - natural[0]).abs() < 1e-12);
+        assert!(((next[0].max - next[0].min) - 0.004).abs() < 1e-12);
+        let pending: Vec<_> = store
+            .jobs(id)
+            .await
+            .unwrap()
+            .into_iter()
+            .filter(|j| j.state() == JobState::Pending)
+            .collect();
+        assert_eq!(pending.len(), 13);
+        assert!(pending.iter().any(|j| j.name == "r1-t000r0"));
+        // Round 1 is not analysed before its jobs ran; round 0 is never analysed twice.
+        assert!(!store.round_decided(id, 1).await.unwrap());
+        assert_eq!(store.rounds(id).await.unwrap()[0], rounds[0]);
     }
 }

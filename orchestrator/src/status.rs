@@ -218,6 +218,9 @@ fn round_json(round: &StoredRound, names: &[&str]) -> Value {
             "sigma_cross_percent": f.sigma_cross,
             "r2_cross": f.r2_cross,
             "press": f.press,
+            "test_runs": f.test_runs,
+            "sigma_test_percent": f.sigma_test,
+            "r2_test": f.r2_test,
             "error": f.error,
             "terms": f.terms.iter().map(|(name, b, se, t)| json!({"name": name, "coefficient": b, "std_error": se, "t": t})).collect::<Vec<_>>(),
         })).collect::<Vec<_>>(),
@@ -265,6 +268,12 @@ pub fn rounds_summary(rounds: &[StoredRound], names: &[String]) -> String {
                     fit.basis,
                     fit.order
                 )),
+            }
+            if let (Some(sigma), Some(r2)) = (fit.sigma_test, fit.r2_test) {
+                out.push_str(&format!(
+                    "    on {} held-out test runs: σ_test {sigma:.1} %, R²(test) {r2:.4}\n",
+                    fit.test_runs
+                ));
             }
         }
         if let Some((response, goal, value, natural)) = &round.optimum {

@@ -20,7 +20,7 @@ fn two_rounds_zoom_in_around_the_first_optimum_and_status_shows_the_metamodel() 
     );
 
     let status = project.status("discharge-two-rounds");
-    assert_eq!(count(&status, "succeeded"), 30);
+    assert_eq!(count(&status, "succeeded"), 36);
     let rounds = status["rounds"].as_array().unwrap();
     assert_eq!(rounds.len(), 2);
     let first = &rounds[0];
@@ -33,6 +33,8 @@ fn two_rounds_zoom_in_around_the_first_optimum_and_status_shows_the_metamodel() 
         .unwrap();
     assert!(fit["sigma_cross_percent"].as_f64().unwrap() > 0.0);
     assert!(fit["r2"].as_f64().unwrap() > 0.5, "{fit}");
+    assert_eq!(fit["test_runs"], 3);
+    assert!(fit["sigma_test_percent"].as_f64().unwrap() > 0.0, "{fit}");
     // Round 1's box is half as wide and holds round 0's optimum (moved inside the limits).
     let optimum = &first["optimum"]["factors"];
     let limits: std::collections::BTreeMap<&str, (f64, f64)> = [

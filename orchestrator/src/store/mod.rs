@@ -209,15 +209,24 @@ impl Store {
             .await
             .map_err(query_error("record the round's box"))?;
         }
+        let runs_dir = runs_root.join(&study.name);
+        let design = PointPurpose::Design;
         insert_points_and_jobs(
             &mut tx,
             study,
             study_id,
             0,
             &study.points,
-            &runs_root.join(&study.name),
+            design,
+            &runs_dir,
         )
         .await?;
+        let ranges: Vec<_> = study.factors.iter().map(|f| f.range).collect();
+        let tests = study.test_points(0, &ranges);
+        let test = PointPurpose::Test {
+            first_idx: study.points.len(),
+        };
+        insert_points_and_jobs(&mut tx, study, study_id, 0, &tests, test, &runs_dir).await?;
         tx.commit()
             .await
             .map_err(query_error("commit the new study"))?;
@@ -348,7 +357,7 @@ impl Store {
     /// The design points of a study with their coded and natural values.
     pub async fn points(&self, study_id: i64) -> Result<Vec<PointRow>, StoreError> {
         let rows = sqlx::query(
-            "SELECT p.id, p.round, p.idx, v.coded, v.natural FROM points p
+            "SELECT p.id, p.round, p.idx, v.coded, v.natural, p.purpose FROM points p
              JOIN point_values v ON v.point_id = p.id
              WHERE p.study_id = ? ORDER BY p.round, p.idx, v.factor_idx",
         )
@@ -364,6 +373,7 @@ impl Store {
                     id,
                     round: row.get(1),
                     idx: row.get(2),
+                    purpose: row.get(5),
                     coded: Vec::new(),
                     natural: Vec::new(),
                 });
@@ -669,26 +679,47 @@ impl Store {
     }
 }
 
+/// Whether points are fitted or held out to test the fit.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PointPurpose {
+    /// Design points, fitted; jobs `p<i>r<replicate>`.
+    Design,
+    /// Test points, held out; jobs `t<i>r<replicate>`, numbered in the round after the
+    /// design points from `first_idx`.
+    Test {
+        /// Index of the first test point within the round.
+        first_idx: usize,
+    },
+}
+
 /// Inserts a round's points and one job per point and replicate. Round 0's jobs are
-/// `p<point>r<replicate>`, later rounds' `r<round>-p<point>r<replicate>`.
-async fn insert_points_and_jobs(
+/// `p<point>r<replicate>` (test points `t…`), later rounds' `r<round>-p<point>r<replicate>`.
+pub(crate) async fn insert_points_and_jobs(
     tx: &mut sqlx::SqliteConnection,
     study: &Study,
     study_id: i64,
     round: i64,
     points: &[crate::study::DesignPoint],
+    purpose: PointPurpose,
     runs_dir: &Path,
 ) -> Result<(), StoreError> {
-    for (idx, point) in points.iter().enumerate() {
-        let point_id: i64 =
-            sqlx::query("INSERT INTO points (study_id, round, idx) VALUES (?, ?, ?) RETURNING id")
-                .bind(study_id)
-                .bind(round)
-                .bind(idx as i64)
-                .fetch_one(&mut *tx)
-                .await
-                .map_err(query_error("record a design point"))?
-                .get(0);
+    let (first_idx, letter, purpose_name) = match purpose {
+        PointPurpose::Design => (0, 'p', "design"),
+        PointPurpose::Test { first_idx } => (first_idx, 't', "test"),
+    };
+    for (number, point) in points.iter().enumerate() {
+        let idx = first_idx + number;
+        let point_id: i64 = sqlx::query(
+            "INSERT INTO points (study_id, round, idx, purpose) VALUES (?, ?, ?, ?) RETURNING id",
+        )
+        .bind(study_id)
+        .bind(round)
+        .bind(idx as i64)
+        .bind(purpose_name)
+        .fetch_one(&mut *tx)
+        .await
+        .map_err(query_error("record a design point"))?
+        .get(0);
         for (factor_idx, (coded, natural)) in point.coded.iter().zip(&point.natural).enumerate() {
             sqlx::query("INSERT INTO point_values (point_id, factor_idx, coded, natural) VALUES (?, ?, ?, ?)")
                 .bind(point_id)
@@ -705,7 +736,7 @@ async fn insert_points_and_jobs(
             } else {
                 format!("r{round}-")
             };
-            let name = format!("{prefix}p{idx:03}r{replicate}");
+            let name = format!("{prefix}{letter}{number:03}r{replicate}");
             let run_dir = runs_dir.join(&name);
             let seed = study.job_seed(round as usize * 100_000 + idx, replicate);
             sqlx::query(

@@ -2,7 +2,7 @@
 
 use std::path::Path;
 
-use orch_metamodel::{FactorRange, Fit, Optimum, Spread};
+use orch_metamodel::{FactorRange, Fit, Optimum, Spread, TestQuality};
 use sqlx::Row;
 
 use super::{query_error, Store, StoreError};
@@ -21,6 +21,8 @@ pub struct FitRecord {
     pub runs: usize,
     /// The fit, or why there is none.
     pub result: Result<Fit, String>,
+    /// Held-out test runs and the fit's error on them.
+    pub test: Option<(usize, TestQuality)>,
 }
 
 /// Everything the analysis of one round decided, recorded at once.
@@ -38,8 +40,8 @@ pub struct RoundRecord {
     pub decision: &'static str,
     /// Why, for people.
     pub note: String,
-    /// The next round's box and points, when there is one.
-    pub next: Option<(Vec<FactorRange>, Vec<DesignPoint>)>,
+    /// The next round's box, design points and test points, when there is one.
+    pub next: Option<(Vec<FactorRange>, Vec<DesignPoint>, Vec<DesignPoint>)>,
 }
 
 /// A stored fit.
@@ -63,6 +65,12 @@ pub struct StoredFit {
     pub r2_cross: Option<f64>,
     /// PRESS.
     pub press: Option<f64>,
+    /// Held-out runs.
+    pub test_runs: i64,
+    /// σ_test_rel, %.
+    pub sigma_test: Option<f64>,
+    /// R² from σ_test_rel.
+    pub r2_test: Option<f64>,
     /// Why there is no fit.
     pub error: Option<String>,
     /// `(name, coefficient, standard error, t)`.
@@ -155,8 +163,8 @@ impl Store {
                 .unwrap_or(0);
             let fit_id: i64 = sqlx::query(
                 "INSERT INTO fits (study_id, round, response, basis, ord, runs, terms, r2, adjusted_r2, sigma_cross,
-                                   r2_cross, press, residual_std, error)
-                 VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?) RETURNING id",
+                                   r2_cross, press, residual_std, error, test_runs, sigma_test, r2_test)
+                 VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?) RETURNING id",
             )
             .bind(study_id)
             .bind(round)
@@ -172,6 +180,9 @@ impl Store {
             .bind(quality.and_then(|q| q.press))
             .bind(quality.and_then(|q| q.residual_std))
             .bind(error)
+            .bind(fit.test.map(|t| t.0 as i64).unwrap_or(0))
+            .bind(fit.test.map(|t| t.1.sigma_test_rel_percent))
+            .bind(fit.test.map(|t| t.1.r2))
             .fetch_one(&mut *tx)
             .await
             .map_err(query_error("record a fit"))?
@@ -242,7 +253,7 @@ impl Store {
             .execute(&mut *tx)
             .await
             .map_err(query_error("record a decision"))?;
-        if let Some((ranges, points)) = &record.next {
+        if let Some((ranges, points, tests)) = &record.next {
             for (idx, range) in ranges.iter().enumerate() {
                 sqlx::query("INSERT INTO round_factors (study_id, round, idx, min, max) VALUES (?, ?, ?, ?, ?)")
                     .bind(study_id)
@@ -254,8 +265,30 @@ impl Store {
                     .await
                     .map_err(query_error("record the next round's box"))?;
             }
-            super::insert_points_and_jobs(&mut tx, study, study_id, round + 1, points, runs_dir)
-                .await?;
+            let design = super::PointPurpose::Design;
+            super::insert_points_and_jobs(
+                &mut tx,
+                study,
+                study_id,
+                round + 1,
+                points,
+                design,
+                runs_dir,
+            )
+            .await?;
+            let test = super::PointPurpose::Test {
+                first_idx: points.len(),
+            };
+            super::insert_points_and_jobs(
+                &mut tx,
+                study,
+                study_id,
+                round + 1,
+                tests,
+                test,
+                runs_dir,
+            )
+            .await?;
         }
         tx.commit()
             .await
@@ -269,7 +302,8 @@ impl Store {
         for round in 0..=latest {
             let ranges = self.round_ranges(study_id, round).await?;
             let fit_rows = sqlx::query(
-                "SELECT id, response, basis, ord, runs, r2, adjusted_r2, sigma_cross, r2_cross, press, error
+                "SELECT id, response, basis, ord, runs, r2, adjusted_r2, sigma_cross, r2_cross, press, error,
+                        test_runs, sigma_test, r2_test
                  FROM fits WHERE study_id = ? AND round = ? ORDER BY id",
             )
             .bind(study_id)
@@ -297,6 +331,9 @@ impl Store {
                     r2_cross: row.get(8),
                     press: row.get(9),
                     error: row.get(10),
+                    test_runs: row.get(11),
+                    sigma_test: row.get(12),
+                    r2_test: row.get(13),
                     terms,
                 });
             }

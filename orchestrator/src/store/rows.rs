@@ -213,6 +213,8 @@ pub struct PointRow {
     pub round: i64,
     /// Index within the round.
     pub idx: i64,
+    /// `design` (fitted) or `test` (held out).
+    pub purpose: String,
     /// Coded values.
     pub coded: Vec<f64>,
     /// Natural values.

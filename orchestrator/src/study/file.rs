@@ -72,14 +72,36 @@ pub enum GoalFile {
     Maximise,
 }
 
-/// The `objective:` section.
+/// The `objective:` section: one response, or a weighted sum of responses, optionally
+/// subject to bounds on other responses.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ObjectiveFile {
-    /// Response name.
-    pub response: String,
+    /// A single response to optimise.
+    #[serde(default)]
+    pub response: Option<String>,
+    /// Or a weighted sum of responses, `{name: weight}`.
+    #[serde(default)]
+    pub weights: Option<BTreeMap<String, f64>>,
     /// Direction.
     pub goal: GoalFile,
+    /// Bounds on other responses' surfaces.
+    #[serde(default)]
+    pub constraints: Vec<ConstraintFile>,
+}
+
+/// A bound on a response at the optimum.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ConstraintFile {
+    /// Response name.
+    pub response: String,
+    /// Smallest allowed value.
+    #[serde(default)]
+    pub min: Option<f64>,
+    /// Largest allowed value.
+    #[serde(default)]
+    pub max: Option<f64>,
 }
 
 /// Polynomial bases.
@@ -103,6 +125,10 @@ pub struct MetamodelFile {
     /// Total polynomial order, 1 to 3 (default 2).
     #[serde(default = "two")]
     pub order: u32,
+    /// Extra Latin-hypercube points per round, run but left out of the fit, to
+    /// measure prediction error (default 0).
+    #[serde(default)]
+    pub test_points: usize,
 }
 
 impl Default for MetamodelFile {
@@ -110,6 +136,7 @@ impl Default for MetamodelFile {
         MetamodelFile {
             basis: BasisFile::Legendre,
             order: 2,
+            test_points: 0,
         }
     }
 }

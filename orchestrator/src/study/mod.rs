@@ -78,13 +78,41 @@ pub struct Template {
     pub text: String,
 }
 
-/// What the rounds optimise.
+/// What the rounds optimise: a weighted sum of responses (one term for a single
+/// response), subject to bounds on responses.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Objective {
-    /// Response name.
-    pub response: String,
+    /// `(response, weight)`.
+    pub terms: Vec<(String, f64)>,
     /// Direction.
     pub goal: Goal,
+    /// `(response, min, max)` bounds at the optimum.
+    pub constraints: Vec<(String, Option<f64>, Option<f64>)>,
+}
+
+impl Objective {
+    /// A name for messages and the store: the response, or `0.5*a + 2*b`.
+    pub fn name(&self) -> String {
+        match self.terms.as_slice() {
+            [(response, weight)] if *weight == 1.0 => response.clone(),
+            terms => terms
+                .iter()
+                .map(|(r, w)| format!("{w}*{r}"))
+                .collect::<Vec<_>>()
+                .join(" + "),
+        }
+    }
+
+    /// Every response the objective needs a surface of.
+    pub fn responses(&self) -> Vec<String> {
+        let mut names: Vec<String> = self.terms.iter().map(|(r, _)| r.clone()).collect();
+        for (r, _, _) in &self.constraints {
+            if !names.contains(r) {
+                names.push(r.clone());
+            }
+        }
+        names
+    }
 }
 
 /// The response surfaces fitted after each round.
@@ -98,6 +126,8 @@ pub struct MetamodelConfig {
     pub shrink: f64,
     /// Relative change of the optimum below which the study stops.
     pub tolerance: f64,
+    /// Held-out Latin-hypercube points per round.
+    pub test_points: usize,
 }
 
 /// Monte Carlo at the optimum over uncertain factors.
@@ -188,9 +218,35 @@ impl Study {
         checker.validate(file, text, stored_template)
     }
 
-    /// Number of jobs: points × replicates.
+    /// Number of jobs of the first round: (design + test points) × replicates.
     pub fn job_count(&self) -> usize {
-        self.points.len() * self.replicates as usize
+        (self.points.len() + self.metamodel.test_points) * self.replicates as usize
+    }
+
+    /// Held-out test points of `round` in a box of `ranges`: a maximin Latin hypercube
+    /// seeded by the study seed and the round.
+    pub fn test_points(&self, round: i64, ranges: &[FactorRange]) -> Vec<DesignPoint> {
+        if self.metamodel.test_points == 0 {
+            return Vec::new();
+        }
+        let kind = DesignKind::LatinHypercube {
+            samples: self.metamodel.test_points,
+            seed: self.seed.wrapping_add(7_919 * (round as u64 + 1)),
+            candidates: 50,
+        };
+        Design::build(&kind, self.factors.len())
+            .map(|d| d.points)
+            .unwrap_or_default()
+            .into_iter()
+            .map(|coded| DesignPoint {
+                natural: coded
+                    .iter()
+                    .zip(ranges)
+                    .map(|(c, r)| r.to_natural(*c))
+                    .collect(),
+                coded,
+            })
+            .collect()
     }
 
     /// The fully resolved case of `point` with the solver seed `seed`.
@@ -469,22 +525,51 @@ impl Checker<'_> {
         let objective = match &file.objective {
             None => None,
             Some(objective) => {
-                if !known_responses.contains(&objective.response) {
-                    return Err(self.error(
-                        "objective.response",
-                        format!(
-                            "unknown response `{}`; expected one of: {}",
-                            objective.response,
-                            known_responses.join(", ")
-                        ),
-                    ));
+                let known = |field: &str, name: &str| {
+                    if known_responses.iter().any(|r| r == name) {
+                        Ok(())
+                    } else {
+                        Err(self.error(
+                            field,
+                            format!(
+                                "unknown response `{name}`; expected one of: {}",
+                                known_responses.join(", ")
+                            ),
+                        ))
+                    }
+                };
+                let terms = match (&objective.response, &objective.weights) {
+                    (Some(response), None) => {
+                        known("objective.response", response)?;
+                        vec![(response.clone(), 1.0)]
+                    }
+                    (None, Some(weights)) if !weights.is_empty() => {
+                        for (name, weight) in weights {
+                            known(&format!("objective.weights.{name}"), name)?;
+                            if !weight.is_finite() {
+                                return Err(self.error(&format!("objective.weights.{name}"), "expected a finite weight"));
+                            }
+                        }
+                        weights.iter().map(|(n, w)| (n.clone(), *w)).collect()
+                    }
+                    _ => return Err(self.error("objective", "expected either `response:` or `weights:` (a map of response to weight), not both")),
+                };
+                let mut constraints = Vec::new();
+                for (i, c) in objective.constraints.iter().enumerate() {
+                    let at = format!("objective.constraints[{i}]");
+                    known(&format!("{at}.response"), &c.response)?;
+                    if c.min.is_none() && c.max.is_none() {
+                        return Err(self.error(&at, "expected `min:`, `max:` or both"));
+                    }
+                    constraints.push((c.response.clone(), c.min, c.max));
                 }
                 Some(Objective {
-                    response: objective.response.clone(),
+                    terms,
                     goal: match objective.goal {
                         GoalFile::Minimise => Goal::Minimise,
                         GoalFile::Maximise => Goal::Maximise,
                     },
+                    constraints,
                 })
             }
         };
@@ -525,7 +610,17 @@ impl Checker<'_> {
             order: file.metamodel.order,
             shrink,
             tolerance: file.next_round.tolerance,
+            test_points: file.metamodel.test_points,
         };
+        if metamodel.test_points == 1 || metamodel.test_points > 1000 {
+            return Err(self.error(
+                "metamodel.test_points",
+                format!(
+                    "expected 0 or 2 to 1000 test points, got {}",
+                    metamodel.test_points
+                ),
+            ));
+        }
         let uncertainty = match &file.uncertainty {
             None => None,
             Some(u) => Some(self.uncertainty(u, &factors)?),

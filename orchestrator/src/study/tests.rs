@@ -168,3 +168,36 @@ fn latin_hypercube_needs_samples() {
     );
     assert_eq!(load(&text).unwrap().points.len(), 12);
 }
+
+#[test]
+fn objectives_name_their_responses_and_need_one_form() {
+    let base = VALID.to_string();
+    let with = |objective: &str| format!("{base}{objective}");
+    let study = load(&with("objective:\n  weights: {discharge_rate: 1.0, segregation_ratio: -0.5}\n  goal: maximise\n  constraints: [{response: R1_mean, max: 0.01}]\nrounds: 3\n")).unwrap();
+    let objective = study.objective.unwrap();
+    assert_eq!(
+        objective.name(),
+        "1*discharge_rate + -0.5*segregation_ratio"
+    );
+    assert_eq!(
+        objective.responses(),
+        ["discharge_rate", "segregation_ratio", "R1_mean"]
+    );
+    assert_eq!(study.rounds, 3);
+    assert_eq!(
+        error(&with("objective: {goal: maximise}\n")),
+        "jobs/study.yaml:18:12: objective: expected either `response:` or `weights:` (a map of response to weight), not both"
+    );
+    assert_eq!(
+        error(&with("objective: {response: flow, goal: maximise}\n")),
+        "jobs/study.yaml:18:23: objective.response: unknown response `flow`; expected one of: discharged_count, discharged_mass, discharge_rate, R1_mean, R2_mean, segregation_ratio, stream_radius, fine_fraction_outer_2, fine_fraction_outer_5, fine_fraction_outer_10, fine_fraction_outer_12"
+    );
+    assert_eq!(
+        error(&with("rounds: 2\n")),
+        "jobs/study.yaml:18:9: rounds: more than one round needs an `objective:` to move the box towards"
+    );
+    assert_eq!(
+        error(&with("uncertainty: {parameters: [{name: density, distribution: normal, mean: 2500, std: 100}]}\n")),
+        "jobs/study.yaml:18:35: uncertainty.parameters[0].name: `density` must be a factor of the study: the Monte Carlo runs through the design surface; add it to `factors:` with a range covering its distribution"
+    );
+}

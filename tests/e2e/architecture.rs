@@ -24,7 +24,7 @@ fn the_pure_crates_know_nothing_of_io_runtimes_databases_or_templates() {
         ("granular", &["thiserror"][..]),
         (
             "metamodel",
-            &["rand", "rand_chacha", "thiserror", "nalgebra"][..],
+            &["nalgebra", "rand", "rand_chacha", "rand_distr", "thiserror"][..],
         ),
     ] {
         for dependency in dependencies(crate_dir) {

@@ -225,11 +225,7 @@ impl Driver<'_> {
     }
 
     async fn poll(&mut self, job: &JobRow) -> Result<(), DriverError> {
-        let Some(handle) = job
-            .executor_handle
-            .as_deref()
-            .and_then(ProcessHandle::parse)
-        else {
+        let Some(handle) = handle_of(job) else {
             self.store
                 .requeue(job.id, "its handle was unreadable; it runs again", false)
                 .await?;
@@ -322,18 +318,10 @@ impl Driver<'_> {
             self.study.name
         );
         for job in self.store.jobs(self.study_id).await? {
-            if job.state() == JobState::Running {
-                if let Some(handle) = job
-                    .executor_handle
-                    .as_deref()
-                    .and_then(ProcessHandle::parse)
-                {
+            if matches!(job.state(), JobState::Running | JobState::Rendered) {
+                if let Some(handle) = handle_of(&job) {
                     self.executor.terminate(handle);
                 }
-                self.store
-                    .requeue(job.id, "interrupted by the user", true)
-                    .await?;
-            } else if job.state() == JobState::Rendered {
                 self.store
                     .requeue(job.id, "interrupted by the user", true)
                     .await?;
@@ -347,11 +335,7 @@ impl Driver<'_> {
     async fn stop_for_cancel(&mut self) -> Result<Ending, DriverError> {
         for job in self.store.jobs(self.study_id).await? {
             if !job.state().is_final() {
-                if let Some(handle) = job
-                    .executor_handle
-                    .as_deref()
-                    .and_then(ProcessHandle::parse)
-                {
+                if let Some(handle) = handle_of(&job) {
                     self.executor.terminate(handle);
                 }
                 self.store
@@ -398,6 +382,13 @@ impl Driver<'_> {
             &format!("succeeded in {took:.1} s: {}", shown.join(", ")),
         );
     }
+}
+
+/// The local executor's handle of a job's current attempt, if it has one.
+fn handle_of(job: &JobRow) -> Option<ProcessHandle> {
+    job.executor_handle
+        .as_deref()
+        .and_then(ProcessHandle::parse)
 }
 
 /// Responses and series of a run from what its solver observed.

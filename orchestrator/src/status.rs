@@ -154,13 +154,7 @@ impl StudyDetail {
             .map(|(s, n)| (s.as_str(), *n))
             .collect();
         let names: Vec<&str> = self.factors.iter().map(|f| f.name.as_str()).collect();
-        let by_factor = |values: &[f64]| -> BTreeMap<String, f64> {
-            names
-                .iter()
-                .zip(values)
-                .map(|(n, v)| (n.to_string(), *v))
-                .collect()
-        };
+        let by_factor = |values: &[f64]| by_factor(&names, values);
         json!({
             "schema": JSON_SCHEMA,
             "study": {
@@ -197,14 +191,17 @@ impl StudyDetail {
     }
 }
 
+/// Values keyed by factor name.
+fn by_factor(names: &[&str], values: &[f64]) -> BTreeMap<String, f64> {
+    names
+        .iter()
+        .zip(values)
+        .map(|(n, v)| (n.to_string(), *v))
+        .collect()
+}
+
 fn round_json(round: &StoredRound, names: &[&str]) -> Value {
-    let by_factor = |values: &[f64]| -> BTreeMap<String, f64> {
-        names
-            .iter()
-            .zip(values)
-            .map(|(n, v)| (n.to_string(), *v))
-            .collect()
-    };
+    let by_factor = |values: &[f64]| by_factor(names, values);
     json!({
         "round": round.round,
         "box": names.iter().zip(&round.ranges).map(|(n, r)| (n.to_string(), json!({"min": r.min, "max": r.max}))).collect::<BTreeMap<_, _>>(),

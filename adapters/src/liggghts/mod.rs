@@ -246,6 +246,12 @@ impl Liggghts {
         -case.get("sensor_depth")
     }
 
+    /// Height of the sink plane that counts and removes particles, just below the
+    /// dumped band around the sensor plane.
+    fn sink_z_m(case: &Case) -> f64 {
+        Self::sensor_z_m(case) - SENSOR_BAND_M - 0.003
+    }
+
     /// Every value the template sees: the parameters plus what follows from them.
     fn context(case: &Case) -> Context {
         let geometry = Self::geometry(case);
@@ -265,7 +271,7 @@ impl Liggghts {
         let fill_top = geometry.total_height_m() - 2.0 * coarse_radius;
         let fill_radius = geometry.radius_at(fill_bottom) - 2.0 * coarse_radius;
         let half_width = geometry.top_radius_m() + 0.005;
-        let delete_z = sensor_z - SENSOR_BAND_M - 0.003;
+        let delete_z = Self::sink_z_m(case);
         let derived = [
             ("coarse_radius", coarse_radius),
             ("fine_radius", 0.5 * case.get("fine_diameter")),
@@ -414,12 +420,7 @@ impl SolverAdapter for Liggghts {
         if let Some(valve) = geometry.valve_mesh() {
             write(run_dir, "valve.stl", &valve.to_ascii_stl("valve"))?;
         }
-        let context = Self::context(case);
-        let delete_z = context
-            .get("delete_z")
-            .and_then(|v| v.as_f64())
-            .unwrap_or(-0.02);
-        let sink = geometry.sensor_mesh(geometry.top_radius_m() + 0.005, delete_z);
+        let sink = geometry.sensor_mesh(geometry.top_radius_m() + 0.005, Self::sink_z_m(case));
         write(run_dir, "sink.stl", &sink.to_ascii_stl("sink"))?;
         Ok(())
     }

@@ -1,0 +1,31 @@
+//! `orch-dem`: orch's native discrete element kernel.
+//!
+//! Spheres of several types interact through LIGGGHTS's Hertz–Mindlin contact law
+//! ([`force`]) with each other and with rigid, possibly moving triangle-mesh walls
+//! ([`mesh`], [`walls`]). [`simulation::Simulation`] advances them by velocity Verlet;
+//! [`insert`] fills a region without overlaps; [`case`] reads the case file format
+//! (TOML) that `orch` renders and [`output`] writes LIGGGHTS-compatible dumps, VTK
+//! files and the sensor's crossings.
+//!
+//! The kernel does no I/O: callers hand it bytes and writers. It is deterministic: the
+//! same case and seed give the same numbers, bit for bit, with any number of rayon
+//! threads (forces are summed per particle in a fixed order).
+
+#![warn(missing_docs)]
+#![forbid(unsafe_code)]
+
+pub mod case;
+pub mod contact;
+pub mod force;
+pub mod insert;
+pub mod material;
+pub mod math;
+pub mod mesh;
+pub mod neighbour;
+pub mod output;
+pub mod particles;
+pub mod simulation;
+pub mod walls;
+
+pub use math::{Real, Vec3};
+pub use simulation::{Config, Crossing, Simulation, Unstable};

@@ -1,0 +1,738 @@
+//! The time step: what happens, in order, when the simulation advances by `dt`.
+//!
+//! 1. **Kick and drift**: `v += dt/2 F/m`, `ω += dt/2 τ/I`, `x += dt v`
+//!    (velocity Verlet, as LIGGGHTS's `nve/sphere`); crossings of the sensor plane and
+//!    arrivals below the sink are recorded here, with the crossing time and position
+//!    interpolated within the step.
+//! 2. **Neighbours**: when some particle has moved, relative to the walls, more than
+//!    half the skin since the last rebuild, particles that reached the sink are removed
+//!    and the pair list and wall candidates are rebuilt.
+//! 3. **Pair forces** (parallel over blocks of particles): each pair's Hertz–Mindlin
+//!    force into a per-pair slot, histories updated in place.
+//! 4. **Gather** (parallel over particles): gravity, the particle's pair forces in list
+//!    order, and its wall contacts.
+//! 5. **Kick**: `v += dt/2 F/m`, `ω += dt/2 τ/I`; speeds and overlaps beyond their
+//!    bounds stop the run with [`Unstable`].
+//!
+//! Every sum runs in an order fixed by the particle and pair indices, so a run gives
+//! the same numbers, bit for bit, with any number of threads.
+
+use std::time::{Duration, Instant};
+
+use rayon::prelude::*;
+
+use crate::force::{hertz_mindlin, ContactGeometry};
+use crate::material::{ContactTable, Material, ParticleType};
+use crate::math::{Real, Vec3};
+use crate::mesh::WallMesh;
+use crate::neighbour::{CellGrid, PairList};
+use crate::particles::Particles;
+use crate::walls::{wall_load, MeshIndex, ParticleView, WallCandidates, WallContacts, WallState};
+
+/// Settings of a simulation that are not particles or walls.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Config {
+    /// Time step, s.
+    pub timestep_s: Real,
+    /// Gravitational acceleration, m/s².
+    pub gravity_m_s2: Vec3,
+    /// Verlet skin added to the contact reach when listing neighbours, m.
+    pub skin_m: Real,
+    /// Box that the neighbour grid covers, m (particles outside still interact).
+    pub domain_min_m: Vec3,
+    /// See `domain_min_m`.
+    pub domain_max_m: Vec3,
+    /// Wall contacts on one mesh whose normals differ by less than this angle are one
+    /// contact, degrees.
+    pub coplanar_angle_deg: Real,
+    /// A particle faster than this means the run has gone unstable, m/s.
+    pub max_speed_m_s: Real,
+    /// An overlap beyond this fraction of the smaller radius means the run has gone
+    /// unstable (typical overlaps are below 1 %).
+    pub max_overlap_ratio: Real,
+    /// The material of every wall.
+    pub wall_material: Material,
+}
+
+/// A particle crossing the sensor plane downwards.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Crossing {
+    /// Time of the crossing, s.
+    pub time_s: Real,
+    /// Particle id.
+    pub id: u32,
+    /// Particle type index.
+    pub kind: u16,
+    /// Radius, m.
+    pub radius_m: Real,
+    /// Mass, kg.
+    pub mass_kg: Real,
+    /// Centre where it crossed, m.
+    pub position_m: Vec3,
+    /// Velocity at the end of the step it crossed in, m/s.
+    pub velocity_m_s: Vec3,
+}
+
+/// Why a run stopped: it went unstable at a given step.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum Unstable {
+    /// A particle moved too fast.
+    #[error("the run went unstable at step {step} (t = {time_s:.6} s): particle {id} moves at {speed_m_s:.3e} m/s, beyond the bound of {bound_m_s} m/s; reduce the time step (now {timestep_s:.3e} s) or check the material stiffness")]
+    Speed {
+        /// Step number.
+        step: u64,
+        /// Simulated time, s.
+        time_s: Real,
+        /// Particle id.
+        id: u32,
+        /// Its speed, m/s (NaN when the state is no longer finite).
+        speed_m_s: Real,
+        /// The bound, m/s.
+        bound_m_s: Real,
+        /// The time step, s.
+        timestep_s: Real,
+    },
+    /// Two bodies overlapped too deeply.
+    #[error("the run went unstable at step {step} (t = {time_s:.6} s): particle {id} overlaps {other} by {ratio:.3} of its radius, beyond the bound of {bound}; reduce the time step (now {timestep_s:.3e} s) or check that no particle starts inside a wall")]
+    Overlap {
+        /// Step number.
+        step: u64,
+        /// Simulated time, s.
+        time_s: Real,
+        /// Particle id.
+        id: u32,
+        /// The other body ("particle 12" or "a wall").
+        other: String,
+        /// Overlap divided by the smaller radius.
+        ratio: Real,
+        /// The bound.
+        bound: Real,
+        /// The time step, s.
+        timestep_s: Real,
+    },
+}
+
+/// Wall time spent in each stage of the step, for profiles.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct StageTimers {
+    /// Kick, drift, sensor and sink.
+    pub integrate: Duration,
+    /// Neighbour list and wall candidate rebuilds.
+    pub neighbours: Duration,
+    /// Pair forces.
+    pub pairs: Duration,
+    /// Gathering forces and wall contacts.
+    pub gather_and_walls: Duration,
+    /// Number of neighbour list rebuilds.
+    pub rebuilds: u64,
+}
+
+/// The forces of one pair, stored per pair and gathered per particle.
+#[derive(Debug, Clone, Copy, Default)]
+struct PairLoad {
+    force_on_first: Vec3,
+    torque_on_first: Vec3,
+    torque_on_second: Vec3,
+}
+
+/// Pair rows are processed in blocks of this many particles.
+const BLOCK: usize = 64;
+
+/// A DEM simulation: particles, walls, and the scratch state of the stepper.
+#[derive(Debug)]
+pub struct Simulation {
+    config: Config,
+    types: Vec<ParticleType>,
+    table: ContactTable,
+    /// The particles (read them between steps; the stepper owns their order).
+    pub particles: Particles,
+    meshes: Vec<WallMesh>,
+    mesh_indexes: Vec<MeshIndex>,
+    grid: CellGrid,
+    pairs: PairList,
+    pair_loads: Vec<PairLoad>,
+    wall_candidates: WallCandidates,
+    wall_contacts: Vec<WallContacts>,
+    reference_positions: Vec<Vec3>,
+    reference_offsets: Vec<Vec3>,
+    mesh_present: Vec<bool>,
+    time_s: Real,
+    step: u64,
+    sensor_z_m: Option<Real>,
+    crossed: Vec<bool>,
+    crossings: Vec<Crossing>,
+    sink_z_m: Option<Real>,
+    leaving: Vec<bool>,
+    leaving_count: usize,
+    removed_mass_kg: Real,
+    particle_steps: u64,
+    timers: StageTimers,
+}
+
+/// Why a simulation cannot be set up.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SetupError {
+    /// A number that must be positive and finite is not.
+    #[error("{what} must be a positive finite number, got {value}")]
+    NotPositive {
+        /// What the number is.
+        what: String,
+        /// Its value.
+        value: Real,
+    },
+    /// A particle is larger than the domain.
+    #[error("particle type {kind} (radius {radius_m} m) is larger than the domain ({extent_m:.4} m across its smallest side); enlarge the domain or use smaller particles")]
+    ParticleLargerThanDomain {
+        /// Type index.
+        kind: usize,
+        /// Its radius, m.
+        radius_m: Real,
+        /// The domain's smallest extent, m.
+        extent_m: Real,
+    },
+    /// The initial state already overlaps beyond the bound.
+    #[error("the initial state: {0}")]
+    Initial(#[from] Unstable),
+}
+
+impl Simulation {
+    /// A simulation of `particles` of `types` among `meshes`.
+    pub fn new(
+        config: Config,
+        types: Vec<ParticleType>,
+        particles: Particles,
+        meshes: Vec<WallMesh>,
+    ) -> Result<Self, SetupError> {
+        let positive = |what: &str, value: Real| {
+            if value > 0.0 && value.is_finite() {
+                Ok(())
+            } else {
+                Err(SetupError::NotPositive {
+                    what: what.to_string(),
+                    value,
+                })
+            }
+        };
+        positive("the time step (s)", config.timestep_s)?;
+        positive("the skin (m)", config.skin_m)?;
+        positive("max_speed (m/s)", config.max_speed_m_s)?;
+        positive("max_overlap_ratio", config.max_overlap_ratio)?;
+        let extent = (config.domain_max_m - config.domain_min_m).min();
+        positive("the domain's smallest extent (m)", extent)?;
+        for (kind, t) in types.iter().enumerate() {
+            positive(&format!("particle type {kind}'s radius (m)"), t.radius_m)?;
+            positive(
+                &format!("particle type {kind}'s density (kg/m^3)"),
+                t.density_kg_m3,
+            )?;
+            positive(
+                &format!("particle type {kind}'s Young's modulus (Pa)"),
+                t.material.youngs_modulus_pa,
+            )?;
+            positive(
+                &format!("particle type {kind}'s restitution"),
+                t.material.restitution,
+            )?;
+            if 2.0 * t.radius_m > extent {
+                return Err(SetupError::ParticleLargerThanDomain {
+                    kind,
+                    radius_m: t.radius_m,
+                    extent_m: extent,
+                });
+            }
+        }
+        let largest = types.iter().map(|t| t.radius_m).fold(0.0, Real::max);
+        let reach = 2.0 * largest + config.skin_m;
+        let grid = CellGrid::new(config.domain_min_m, config.domain_max_m, reach);
+        let mesh_indexes = meshes
+            .iter()
+            .map(|m| MeshIndex::new(m, largest + config.skin_m))
+            .collect();
+        let table = ContactTable::new(&types, &config.wall_material);
+        let n = particles.len();
+        let mut simulation = Self {
+            table,
+            types,
+            mesh_indexes,
+            grid,
+            pairs: PairList::default(),
+            pair_loads: Vec::new(),
+            wall_candidates: WallCandidates::default(),
+            wall_contacts: vec![WallContacts::default(); n],
+            reference_positions: Vec::new(),
+            reference_offsets: vec![Vec3::zeros(); meshes.len()],
+            mesh_present: vec![true; meshes.len()],
+            meshes,
+            time_s: 0.0,
+            step: 0,
+            sensor_z_m: None,
+            crossed: vec![false; n],
+            crossings: Vec::new(),
+            sink_z_m: None,
+            leaving: vec![false; n],
+            leaving_count: 0,
+            removed_mass_kg: 0.0,
+            particle_steps: 0,
+            timers: StageTimers::default(),
+            particles,
+            config,
+        };
+        simulation.rebuild();
+        simulation.compute_forces()?;
+        Ok(simulation)
+    }
+
+    /// Records particles crossing the horizontal plane `z = z_m` downwards.
+    pub fn set_sensor_plane(&mut self, z_m: Real) {
+        self.sensor_z_m = Some(z_m);
+    }
+
+    /// Removes particles whose centre falls below `z = z_m` (counted as discharged).
+    pub fn set_sink_plane(&mut self, z_m: Real) {
+        self.sink_z_m = Some(z_m);
+    }
+
+    /// Simulated time, s.
+    pub fn time_s(&self) -> Real {
+        self.time_s
+    }
+
+    /// Steps taken.
+    pub fn step_count(&self) -> u64 {
+        self.step
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &Config {
+        &self.config
+    }
+
+    /// The particle types.
+    pub fn types(&self) -> &[ParticleType] {
+        &self.types
+    }
+
+    /// The walls.
+    pub fn meshes(&self) -> &[WallMesh] {
+        &self.meshes
+    }
+
+    /// Particles still in the simulation (not yet past the sink).
+    pub fn remaining(&self) -> usize {
+        self.particles.len() - self.leaving_count
+    }
+
+    /// Mass that has passed the sink, kg.
+    pub fn discharged_mass_kg(&self) -> Real {
+        self.removed_mass_kg
+    }
+
+    /// Sum over steps of the particles advanced, for throughput figures.
+    pub fn particle_steps(&self) -> u64 {
+        self.particle_steps
+    }
+
+    /// Time spent per stage so far.
+    pub fn timers(&self) -> StageTimers {
+        self.timers
+    }
+
+    /// Takes the crossings recorded since the last call.
+    pub fn take_crossings(&mut self) -> Vec<Crossing> {
+        std::mem::take(&mut self.crossings)
+    }
+
+    /// Each wall's wall contacts of particle index `i` (for tests and dumps).
+    pub fn wall_contact_count(&self, i: usize) -> usize {
+        self.wall_contacts[i].as_slice().len()
+    }
+
+    /// Advances the simulation by one time step.
+    pub fn step(&mut self) -> Result<(), Unstable> {
+        let dt = self.config.timestep_s;
+        let started = Instant::now();
+        self.kick_and_drift(dt);
+        self.time_s += dt;
+        self.step += 1;
+        self.particle_steps += self.particles.len() as u64;
+        self.timers.integrate += started.elapsed();
+
+        if self.needs_rebuild() {
+            let started = Instant::now();
+            self.rebuild();
+            self.timers.neighbours += started.elapsed();
+        }
+        self.compute_forces()?;
+        let started = Instant::now();
+        let result = self.kick(dt);
+        self.timers.integrate += started.elapsed();
+        result
+    }
+
+    fn kick_and_drift(&mut self, dt: Real) {
+        let half = 0.5 * dt;
+        let p = &mut self.particles;
+        let sensor = self.sensor_z_m;
+        let sink = self.sink_z_m;
+        let time = self.time_s;
+        let events: Vec<(usize, Option<Crossing>, bool)> = (
+            p.position_m.par_iter_mut(),
+            p.velocity_m_s.par_iter_mut(),
+            p.angular_velocity.par_iter_mut(),
+            p.force_n.par_iter(),
+            p.torque_n_m.par_iter(),
+            p.mass_kg.par_iter(),
+            p.radius_m.par_iter(),
+            self.crossed.par_iter_mut(),
+            self.leaving.par_iter(),
+        )
+            .into_par_iter()
+            .enumerate()
+            .filter_map(|(i, (x, v, w, f, tau, &m, &r, crossed, &leaving))| {
+                *v += half / m * f;
+                *w += half / (0.4 * m * r * r) * tau;
+                let z_before = x.z;
+                *x += dt * *v;
+                let mut crossing = None;
+                if let Some(plane) = sensor {
+                    if !*crossed && z_before > plane && x.z <= plane {
+                        *crossed = true;
+                        let fraction = (z_before - plane) / (z_before - x.z);
+                        crossing = Some(Crossing {
+                            time_s: time + fraction * dt,
+                            id: 0,
+                            kind: 0,
+                            radius_m: r,
+                            mass_kg: m,
+                            position_m: *x - (1.0 - fraction) * dt * *v,
+                            velocity_m_s: *v,
+                        });
+                    }
+                }
+                let arrived = !leaving && sink.is_some_and(|s| x.z < s);
+                (crossing.is_some() || arrived).then_some((i, crossing, arrived))
+            })
+            .collect();
+        for (i, crossing, arrived) in events {
+            if let Some(mut crossing) = crossing {
+                crossing.id = self.particles.id[i];
+                crossing.kind = self.particles.kind[i];
+                self.crossings.push(crossing);
+            }
+            if arrived {
+                self.leaving[i] = true;
+                self.leaving_count += 1;
+                self.removed_mass_kg += self.particles.mass_kg[i];
+            }
+        }
+        for (m, mesh) in self.meshes.iter().enumerate() {
+            self.mesh_present[m] = mesh.is_present(time + dt);
+        }
+    }
+
+    fn mesh_offsets(&self) -> Vec<Vec3> {
+        self.meshes
+            .iter()
+            .map(|m| m.motion.displacement_m(self.time_s))
+            .collect()
+    }
+
+    fn needs_rebuild(&self) -> bool {
+        let moved = self
+            .particles
+            .position_m
+            .par_iter()
+            .zip(self.reference_positions.par_iter())
+            .map(|(x, x0)| (x - x0).norm_squared())
+            .reduce(|| 0.0, Real::max)
+            .sqrt();
+        let offsets = self.mesh_offsets();
+        let wall_moved = offsets
+            .iter()
+            .zip(&self.reference_offsets)
+            .map(|(d, d0)| (d - d0).norm())
+            .fold(0.0, Real::max);
+        moved + wall_moved > 0.5 * self.config.skin_m
+    }
+
+    /// Removes particles past the sink, rebuilds the pair list and wall candidates.
+    fn rebuild(&mut self) {
+        let former_ids = self.particles.id.clone();
+        let former = if self.leaving_count > 0 {
+            let keep: Vec<bool> = self.leaving.iter().map(|l| !l).collect();
+            let kept = self.particles.retain(&keep);
+            self.wall_contacts = kept
+                .iter()
+                .map(|&i| self.wall_contacts[i as usize])
+                .collect();
+            self.crossed = kept.iter().map(|&i| self.crossed[i as usize]).collect();
+            self.leaving = vec![false; kept.len()];
+            self.leaving_count = 0;
+            kept
+        } else {
+            (0..self.particles.len() as u32).collect()
+        };
+        let p = &self.particles;
+        self.pairs = PairList::build(
+            &self.grid,
+            &p.position_m,
+            &p.radius_m,
+            self.config.skin_m,
+            &self.pairs,
+            &former,
+            &p.id,
+            &former_ids,
+        );
+        self.pair_loads = vec![PairLoad::default(); self.pairs.len()];
+        let offsets = self.mesh_offsets();
+        self.wall_candidates = WallCandidates::build(
+            &self.meshes,
+            &self.mesh_indexes,
+            &offsets,
+            &self.mesh_present,
+            &p.position_m,
+            &p.radius_m,
+            self.config.skin_m,
+        );
+        self.reference_positions = p.position_m.clone();
+        self.reference_offsets = offsets;
+        self.timers.rebuilds += 1;
+    }
+
+    fn compute_forces(&mut self) -> Result<(), Unstable> {
+        let started = Instant::now();
+        let worst_pair = self.pair_forces();
+        self.timers.pairs += started.elapsed();
+        let started = Instant::now();
+        let worst_wall = self.gather();
+        self.timers.gather_and_walls += started.elapsed();
+        let bound = self.config.max_overlap_ratio;
+        if let Some((ratio, i, j)) = worst_pair {
+            if ratio > bound {
+                return Err(self.overlap_error(
+                    i,
+                    format!("particle {}", self.particles.id[j]),
+                    ratio,
+                ));
+            }
+        }
+        if let Some((ratio, i)) = worst_wall {
+            if ratio > bound {
+                return Err(self.overlap_error(i, "a wall".to_string(), ratio));
+            }
+        }
+        Ok(())
+    }
+
+    fn overlap_error(&self, i: usize, other: String, ratio: Real) -> Unstable {
+        Unstable::Overlap {
+            step: self.step,
+            time_s: self.time_s,
+            id: self.particles.id[i],
+            other,
+            ratio,
+            bound: self.config.max_overlap_ratio,
+            timestep_s: self.config.timestep_s,
+        }
+    }
+
+    /// Pair forces into per-pair slots; returns the deepest overlap (ratio, i, j).
+    fn pair_forces(&mut self) -> Option<(Real, usize, usize)> {
+        let n = self.particles.len();
+        let rows = &self.pairs.row_start;
+        let mut shear_blocks = Vec::new();
+        let mut load_blocks = Vec::new();
+        let mut shear_rest: &mut [Vec3] = &mut self.pairs.shear_m;
+        let mut load_rest: &mut [PairLoad] = &mut self.pair_loads;
+        for first in (0..n).step_by(BLOCK) {
+            let last = (first + BLOCK).min(n);
+            let len = (rows[last] - rows[first]) as usize;
+            let (shear, rest) = shear_rest.split_at_mut(len);
+            shear_rest = rest;
+            shear_blocks.push((first, last, shear));
+            let (loads, rest) = load_rest.split_at_mut(len);
+            load_rest = rest;
+            load_blocks.push(loads);
+        }
+        let p = &self.particles;
+        let partner = &self.pairs.partner;
+        let table = &self.table;
+        let dt = self.config.timestep_s;
+        shear_blocks
+            .into_par_iter()
+            .zip(load_blocks.into_par_iter())
+            .filter_map(|((first, last, shear), loads)| {
+                let base = rows[first] as usize;
+                let mut worst: Option<(Real, usize, usize)> = None;
+                for i in first..last {
+                    let (xi, vi, wi) = (p.position_m[i], p.velocity_m_s[i], p.angular_velocity[i]);
+                    let (ri, mi, ki) = (p.radius_m[i], p.mass_kg[i], p.kind[i] as usize);
+                    let row = rows[i] as usize..rows[i + 1] as usize;
+                    for (local, &j) in (row.start - base..).zip(&partner[row]) {
+                        let j = j as usize;
+                        let rj = p.radius_m[j];
+                        let offset = xi - p.position_m[j];
+                        let reach = ri + rj;
+                        let distance_squared = offset.norm_squared();
+                        if distance_squared >= reach * reach {
+                            shear[local] = Vec3::zeros();
+                            loads[local] = PairLoad::default();
+                            continue;
+                        }
+                        let distance = distance_squared.sqrt();
+                        let overlap = reach - distance;
+                        let ratio = overlap / ri.min(rj);
+                        if worst.is_none_or(|(w, _, _)| ratio > w) {
+                            worst = Some((ratio, i, j));
+                        }
+                        if distance == 0.0 {
+                            loads[local] = PairLoad::default();
+                            continue;
+                        }
+                        let n = offset / distance;
+                        let mj = p.mass_kg[j];
+                        let wj = p.angular_velocity[j];
+                        let contact_velocity =
+                            vi - p.velocity_m_s[j] - (ri * wi + rj * wj).cross(&n);
+                        let geometry = ContactGeometry {
+                            normal: n,
+                            overlap_m: overlap,
+                            effective_radius_m: ri * rj / reach,
+                            effective_mass_kg: mi * mj / (mi + mj),
+                        };
+                        let constants = table.particles(ki, p.kind[j] as usize);
+                        let result = hertz_mindlin(
+                            constants,
+                            &geometry,
+                            contact_velocity,
+                            wi - wj,
+                            &mut shear[local],
+                            dt,
+                        );
+                        let lever = n.cross(&result.tangential);
+                        loads[local] = PairLoad {
+                            force_on_first: result.force,
+                            torque_on_first: -ri * lever + result.rolling_torque,
+                            torque_on_second: -rj * lever - result.rolling_torque,
+                        };
+                    }
+                }
+                worst
+            })
+            .reduce_with(|a, b| {
+                if b.0 > a.0 || (b.0 == a.0 && b.1 < a.1) {
+                    b
+                } else {
+                    a
+                }
+            })
+    }
+
+    /// Per particle: gravity, pair forces, wall contacts. Returns the deepest wall
+    /// overlap (ratio, particle index).
+    fn gather(&mut self) -> Option<(Real, usize)> {
+        let offsets = self.mesh_offsets();
+        let velocities: Vec<Vec3> = self
+            .meshes
+            .iter()
+            .map(|m| m.motion.velocity_m_s(self.time_s))
+            .collect();
+        let walls = WallState {
+            meshes: &self.meshes,
+            offsets_m: &offsets,
+            velocities_m_s: &velocities,
+            present: &self.mesh_present,
+            table: &self.table,
+            dt_s: self.config.timestep_s,
+            cos_coplanar: self.config.coplanar_angle_deg.to_radians().cos(),
+        };
+        let gravity = self.config.gravity_m_s2;
+        let pairs = &self.pairs;
+        let loads = &self.pair_loads;
+        let candidates = &self.wall_candidates;
+        let p = &mut self.particles;
+        let (position, velocity, spin, mass, radius, kind) = (
+            &p.position_m,
+            &p.velocity_m_s,
+            &p.angular_velocity,
+            &p.mass_kg,
+            &p.radius_m,
+            &p.kind,
+        );
+        (
+            p.force_n.par_iter_mut(),
+            p.torque_n_m.par_iter_mut(),
+            self.wall_contacts.par_iter_mut(),
+        )
+            .into_par_iter()
+            .enumerate()
+            .filter_map(|(i, (force, torque, contacts))| {
+                let mut f = mass[i] * gravity;
+                let mut t = Vec3::zeros();
+                for load in &loads[pairs.row_start[i] as usize..pairs.row_start[i + 1] as usize] {
+                    f += load.force_on_first;
+                    t += load.torque_on_first;
+                }
+                for &k in &pairs.reverse_pair
+                    [pairs.reverse_start[i] as usize..pairs.reverse_start[i + 1] as usize]
+                {
+                    let load = &loads[k as usize];
+                    f -= load.force_on_first;
+                    t += load.torque_on_second;
+                }
+                let particle = ParticleView {
+                    position_m: position[i],
+                    velocity_m_s: velocity[i],
+                    angular_velocity: spin[i],
+                    radius_m: radius[i],
+                    mass_kg: mass[i],
+                    kind: kind[i] as usize,
+                };
+                let wall = wall_load(&walls, candidates.of(i), &particle, contacts);
+                *force = f + wall.force_n;
+                *torque = t + wall.torque_n_m;
+                (wall.worst_overlap_ratio > 0.0).then_some((wall.worst_overlap_ratio, i))
+            })
+            .reduce_with(|a, b| {
+                if b.0 > a.0 || (b.0 == a.0 && b.1 < a.1) {
+                    b
+                } else {
+                    a
+                }
+            })
+    }
+
+    fn kick(&mut self, dt: Real) -> Result<(), Unstable> {
+        let half = 0.5 * dt;
+        let bound_squared = self.config.max_speed_m_s.powi(2);
+        let p = &mut self.particles;
+        let too_fast = (
+            p.velocity_m_s.par_iter_mut(),
+            p.angular_velocity.par_iter_mut(),
+            p.force_n.par_iter(),
+            p.torque_n_m.par_iter(),
+            p.mass_kg.par_iter(),
+            p.radius_m.par_iter(),
+        )
+            .into_par_iter()
+            .enumerate()
+            .filter_map(|(i, (v, w, f, tau, &m, &r))| {
+                *v += half / m * f;
+                *w += half / (0.4 * m * r * r) * tau;
+                let speed_squared = v.norm_squared();
+                (speed_squared.is_nan() || speed_squared > bound_squared).then_some(i)
+            })
+            .min();
+        match too_fast {
+            None => Ok(()),
+            Some(i) => Err(Unstable::Speed {
+                step: self.step,
+                time_s: self.time_s,
+                id: self.particles.id[i],
+                speed_m_s: self.particles.velocity_m_s[i].norm(),
+                bound_m_s: self.config.max_speed_m_s,
+                timestep_s: self.config.timestep_s,
+            }),
+        }
+    }
+}

@@ -1,0 +1,409 @@
+//! Particle–wall contacts: which triangles are near each particle (found at each
+//! neighbour-list rebuild), and the contacts of one particle with them in one step.
+//!
+//! A sphere near a shared edge or vertex finds the same point through several
+//! triangles; it must be pushed once. The rules, applied per particle and per mesh:
+//!
+//! 1. every contact on a face interior counts;
+//! 2. a contact on an edge or a vertex counts only if no counted face contains that
+//!    feature and it has not been counted already (through the other triangle);
+//! 3. of contacts on one mesh whose normals differ by less than the *coplanar angle*
+//!    (facets of one smooth surface, such as the segments of a cone), only the deepest
+//!    counts, so a sphere in the crease between two nearly flat facets is not pushed
+//!    twice.
+//!
+//! The tangential history of a wall contact is kept per particle, keyed by mesh and
+//! feature; a contact that moves on to a neighbouring facet inherits the history of
+//! the one it replaces when their normals are within the coplanar angle.
+
+use rayon::prelude::*;
+
+use crate::force::{hertz_mindlin, ContactGeometry};
+use crate::material::ContactTable;
+use crate::math::{Real, Vec3};
+use crate::mesh::{FeatureId, WallMesh};
+use crate::neighbour::CellGrid;
+
+/// Most wall contacts one particle can have at once (a sphere in a corner has three).
+pub const MAX_WALL_CONTACTS: usize = 6;
+
+/// The triangles of one mesh by cell of a grid fixed to the mesh.
+#[derive(Debug, Clone)]
+pub struct MeshIndex {
+    grid: CellGrid,
+    start: Vec<u32>,
+    triangles: Vec<u32>,
+}
+
+impl MeshIndex {
+    /// Indexes `mesh` so that every triangle within `reach_m` of a point is listed in
+    /// the point's cell.
+    pub fn new(mesh: &WallMesh, reach_m: Real) -> Self {
+        let (low, high) = mesh.mesh().bounding_box();
+        let margin = Vec3::repeat(reach_m * 1.01);
+        let (low, high) = (Vec3::from(low) - margin, Vec3::from(high) + margin);
+        let extent = (high - low).max();
+        let grid = CellGrid::new(low, high, (2.0 * reach_m).max(extent / 64.0));
+        let mut lists: Vec<Vec<u32>> = vec![Vec::new(); grid.len()];
+        for t in 0..mesh.triangle_count() as u32 {
+            let [a, b, c] = mesh.corners(t);
+            let tmin = a.inf(&b).inf(&c) - margin;
+            let tmax = a.sup(&b).sup(&c) + margin;
+            let [xs, ys, zs] = grid.covering(tmin, tmax);
+            for z in zs {
+                for y in ys.clone() {
+                    for x in xs.clone() {
+                        lists[grid.index([x, y, z])].push(t);
+                    }
+                }
+            }
+        }
+        let mut start = vec![0u32];
+        let mut triangles = Vec::new();
+        for list in lists {
+            triangles.extend(list);
+            start.push(triangles.len() as u32);
+        }
+        Self {
+            grid,
+            start,
+            triangles,
+        }
+    }
+
+    /// Triangles that may lie within reach of `p_local` (a point in the mesh's frame).
+    #[inline]
+    pub fn near(&self, p_local: Vec3) -> &[u32] {
+        let cell = self.grid.index(self.grid.coords(p_local));
+        &self.triangles[self.start[cell] as usize..self.start[cell + 1] as usize]
+    }
+}
+
+/// For each particle, the wall triangles within its radius plus the skin, as
+/// `(mesh index, triangle index)`, in compressed rows.
+#[derive(Debug, Clone, Default)]
+pub struct WallCandidates {
+    start: Vec<u32>,
+    entries: Vec<(u16, u32)>,
+}
+
+impl WallCandidates {
+    /// Finds the candidates of every particle; meshes that are gone are skipped.
+    pub fn build(
+        meshes: &[WallMesh],
+        indexes: &[MeshIndex],
+        offsets_m: &[Vec3],
+        present: &[bool],
+        positions_m: &[Vec3],
+        radii_m: &[Real],
+        skin_m: Real,
+    ) -> Self {
+        let rows: Vec<Vec<(u16, u32)>> = (0..positions_m.len())
+            .into_par_iter()
+            .map(|i| {
+                let mut row = Vec::new();
+                for (m, mesh) in meshes.iter().enumerate() {
+                    if !present[m] {
+                        continue;
+                    }
+                    let reach = radii_m[i] + skin_m;
+                    let p = positions_m[i];
+                    for &t in indexes[m].near(p - offsets_m[m]) {
+                        let q = mesh.closest_point(t, p, offsets_m[m]).point;
+                        if (p - q).norm_squared() < reach * reach {
+                            row.push((m as u16, t));
+                        }
+                    }
+                }
+                row
+            })
+            .collect();
+        let mut start = vec![0u32];
+        let mut entries = Vec::new();
+        for row in rows {
+            entries.extend(row);
+            start.push(entries.len() as u32);
+        }
+        Self { start, entries }
+    }
+
+    /// Candidates of particle `i`.
+    #[inline]
+    pub fn of(&self, i: usize) -> &[(u16, u32)] {
+        &self.entries[self.start[i] as usize..self.start[i + 1] as usize]
+    }
+}
+
+/// One wall contact that persists from step to step.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WallContact {
+    /// Mesh index.
+    pub mesh: u16,
+    /// Feature of the mesh touched.
+    pub feature: FeatureId,
+    /// Unit normal from the wall towards the particle.
+    pub normal: Vec3,
+    /// Tangential history, m.
+    pub shear_m: Vec3,
+}
+
+const NO_CONTACT: WallContact = WallContact {
+    mesh: u16::MAX,
+    feature: FeatureId::Face(u32::MAX),
+    normal: Vec3::new(0.0, 0.0, 0.0),
+    shear_m: Vec3::new(0.0, 0.0, 0.0),
+};
+
+/// The wall contacts of one particle, a fixed-capacity list.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WallContacts {
+    len: usize,
+    items: [WallContact; MAX_WALL_CONTACTS],
+}
+
+impl Default for WallContacts {
+    fn default() -> Self {
+        Self {
+            len: 0,
+            items: [NO_CONTACT; MAX_WALL_CONTACTS],
+        }
+    }
+}
+
+impl WallContacts {
+    /// The current contacts.
+    pub fn as_slice(&self) -> &[WallContact] {
+        &self.items[..self.len]
+    }
+
+    fn push(&mut self, contact: WallContact) {
+        if self.len < MAX_WALL_CONTACTS {
+            self.items[self.len] = contact;
+            self.len += 1;
+        }
+    }
+}
+
+/// What the wall pass needs to know of the walls at the current step.
+#[derive(Debug, Clone, Copy)]
+pub struct WallState<'a> {
+    /// The walls.
+    pub meshes: &'a [WallMesh],
+    /// Each mesh's displacement from its file position, m.
+    pub offsets_m: &'a [Vec3],
+    /// Each mesh's velocity, m/s.
+    pub velocities_m_s: &'a [Vec3],
+    /// Whether each mesh is present.
+    pub present: &'a [bool],
+    /// Contact constants.
+    pub table: &'a ContactTable,
+    /// Time step, s.
+    pub dt_s: Real,
+    /// Cosine of the coplanar angle (rule 3 above).
+    pub cos_coplanar: Real,
+}
+
+/// One particle as the wall pass sees it.
+#[derive(Debug, Clone, Copy)]
+pub struct ParticleView {
+    /// Centre, m.
+    pub position_m: Vec3,
+    /// Velocity, m/s.
+    pub velocity_m_s: Vec3,
+    /// Angular velocity, rad/s.
+    pub angular_velocity: Vec3,
+    /// Radius, m.
+    pub radius_m: Real,
+    /// Mass, kg.
+    pub mass_kg: Real,
+    /// Type index.
+    pub kind: usize,
+}
+
+/// Force and torque the walls exert on one particle, and its deepest wall overlap.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WallLoad {
+    /// Force, N.
+    pub force_n: Vec3,
+    /// Torque, N m.
+    pub torque_n_m: Vec3,
+    /// Largest overlap divided by the radius (1 when the centre is on the wall).
+    pub worst_overlap_ratio: Real,
+}
+
+#[derive(Clone, Copy)]
+struct Touch {
+    mesh: u16,
+    feature: FeatureId,
+    normal: Vec3,
+    overlap_m: Real,
+}
+
+/// The walls' contacts with one particle in this step: finds the touching features
+/// among `candidates`, applies the counting rules, carries the histories in
+/// `contacts` over, and sums the forces.
+pub fn wall_load(
+    walls: &WallState<'_>,
+    candidates: &[(u16, u32)],
+    particle: &ParticleView,
+    contacts: &mut WallContacts,
+) -> WallLoad {
+    let mut load = WallLoad {
+        force_n: Vec3::zeros(),
+        torque_n_m: Vec3::zeros(),
+        worst_overlap_ratio: 0.0,
+    };
+    if candidates.is_empty() {
+        contacts.len = 0;
+        return load;
+    }
+    let p = particle.position_m;
+    let r = particle.radius_m;
+    let mut touches: [Option<Touch>; 16] = [None; 16];
+    let mut count = 0;
+    for &(m, t) in candidates {
+        if !walls.present[m as usize] || count == touches.len() {
+            continue;
+        }
+        let mesh = &walls.meshes[m as usize];
+        let hit = mesh.closest_point(t, p, walls.offsets_m[m as usize]);
+        let offset = p - hit.point;
+        let distance_squared = offset.norm_squared();
+        if distance_squared >= r * r {
+            continue;
+        }
+        let distance = distance_squared.sqrt();
+        if distance == 0.0 {
+            load.worst_overlap_ratio = 1.0;
+            continue;
+        }
+        touches[count] = Some(Touch {
+            mesh: m,
+            feature: hit.feature,
+            normal: offset / distance,
+            overlap_m: r - distance,
+        });
+        count += 1;
+    }
+    let touches = &mut touches[..count];
+
+    // Rules 1 and 2: faces first, then edges, then vertices, each only once.
+    let rank = |t: &Option<Touch>| match t.map(|t| t.feature) {
+        Some(FeatureId::Face(_)) => 0,
+        Some(FeatureId::Edge(_)) => 1,
+        _ => 2,
+    };
+    touches.sort_by_key(rank);
+    let mut counted: [Option<Touch>; MAX_WALL_CONTACTS * 2] = [None; MAX_WALL_CONTACTS * 2];
+    let mut n_counted = 0;
+    for touch in touches.iter().flatten() {
+        let mesh = &walls.meshes[touch.mesh as usize];
+        let covered = counted[..n_counted].iter().flatten().any(|c| {
+            c.mesh == touch.mesh
+                && (c.feature == touch.feature
+                    || match (c.feature, touch.feature) {
+                        (FeatureId::Face(face), feature) => mesh.face_contains(face, feature),
+                        (FeatureId::Edge(edge), FeatureId::Vertex(vertex)) => {
+                            mesh.edge_contains(edge, vertex)
+                        }
+                        _ => false,
+                    })
+        });
+        if !covered && n_counted < counted.len() {
+            counted[n_counted] = Some(*touch);
+            n_counted += 1;
+        }
+    }
+    // Rule 3: deepest first; drop a contact nearly parallel to a kept one on its mesh.
+    let counted = &mut counted[..n_counted];
+    counted.sort_by(|a, b| {
+        let depth = |t: &Option<Touch>| t.map_or(0.0, |t| t.overlap_m);
+        depth(b).total_cmp(&depth(a))
+    });
+    let previous = *contacts;
+    let mut inherited = [false; MAX_WALL_CONTACTS];
+    contacts.len = 0;
+    let mut kept: [Option<Touch>; MAX_WALL_CONTACTS] = [None; MAX_WALL_CONTACTS];
+    let mut n_kept = 0;
+    for touch in counted.iter().flatten() {
+        let parallel = kept[..n_kept]
+            .iter()
+            .flatten()
+            .any(|k| k.mesh == touch.mesh && k.normal.dot(&touch.normal) > walls.cos_coplanar);
+        if parallel || n_kept == MAX_WALL_CONTACTS {
+            continue;
+        }
+        kept[n_kept] = Some(*touch);
+        n_kept += 1;
+    }
+    // Histories: the same feature first, else a nearly parallel contact on the mesh.
+    let mut shears = [Vec3::zeros(); MAX_WALL_CONTACTS];
+    let mut matched = [false; MAX_WALL_CONTACTS];
+    for (slot, touch) in kept[..n_kept].iter().flatten().enumerate() {
+        if let Some(k) = previous
+            .as_slice()
+            .iter()
+            .position(|c| c.mesh == touch.mesh && c.feature == touch.feature)
+        {
+            shears[slot] = previous.items[k].shear_m;
+            inherited[k] = true;
+            matched[slot] = true;
+        }
+    }
+    for (slot, touch) in kept[..n_kept].iter().flatten().enumerate() {
+        if matched[slot] {
+            continue;
+        }
+        let best = previous
+            .as_slice()
+            .iter()
+            .enumerate()
+            .filter(|(k, c)| {
+                !inherited[*k]
+                    && c.mesh == touch.mesh
+                    && c.normal.dot(&touch.normal) > walls.cos_coplanar
+            })
+            .max_by(|a, b| {
+                a.1.normal
+                    .dot(&touch.normal)
+                    .total_cmp(&b.1.normal.dot(&touch.normal))
+            });
+        if let Some((k, c)) = best {
+            shears[slot] = c.shear_m;
+            inherited[k] = true;
+        }
+    }
+
+    let constants = walls.table.wall(particle.kind);
+    for (slot, touch) in kept[..n_kept].iter().flatten().enumerate() {
+        let n = touch.normal;
+        let wall_velocity = walls.velocities_m_s[touch.mesh as usize];
+        let contact_velocity =
+            particle.velocity_m_s - r * particle.angular_velocity.cross(&n) - wall_velocity;
+        let mut shear = shears[slot];
+        let geometry = ContactGeometry {
+            normal: n,
+            overlap_m: touch.overlap_m,
+            effective_radius_m: r,
+            effective_mass_kg: particle.mass_kg,
+        };
+        let result = hertz_mindlin(
+            constants,
+            &geometry,
+            contact_velocity,
+            particle.angular_velocity,
+            &mut shear,
+            walls.dt_s,
+        );
+        load.force_n += result.force;
+        load.torque_n_m += (-r * n).cross(&result.tangential) + result.rolling_torque;
+        load.worst_overlap_ratio = load.worst_overlap_ratio.max(touch.overlap_m / r);
+        contacts.push(WallContact {
+            mesh: touch.mesh,
+            feature: touch.feature,
+            normal: n,
+            shear_m: shear,
+        });
+    }
+    load
+}

@@ -1,6 +1,6 @@
 //! Solver adapters for `orch`.
 //!
-//! Each solver (LIGGGHTS today; the native kernel, YADE and OpenFOAM later) sits behind
+//! Each solver (LIGGGHTS and orch's native kernel today; YADE and OpenFOAM later) sits behind
 //! one trait, [`SolverAdapter`], that does three things for a fully resolved [`Case`]:
 //!
 //! 1. **render** the solver's input into a run directory (a Tera template plus the
@@ -15,7 +15,9 @@
 
 pub mod dump;
 mod error;
+pub mod hopper;
 pub mod liggghts;
+pub mod native;
 mod params;
 mod primes;
 
@@ -118,12 +120,13 @@ pub trait SolverAdapter: Send + Sync {
 }
 
 /// Names of every solver `orch` knows, for messages.
-pub const SOLVER_NAMES: &[&str] = &["liggghts"];
+pub const SOLVER_NAMES: &[&str] = &["liggghts", "native"];
 
 /// The adapter for solver `name`, or `None` for an unknown solver.
 pub fn adapter_for(name: &str) -> Option<&'static dyn SolverAdapter> {
     match name {
         "liggghts" => Some(&liggghts::Liggghts),
+        "native" => Some(&native::Native),
         _ => None,
     }
 }

@@ -61,29 +61,30 @@ pub fn hertz_mindlin(
     let st = 8.0 * constants.effective_shear_pa * sqrt_rd;
     let kn = 2.0 / 3.0 * sn;
     let gamma_n = constants.damping_factor * (sn * geometry.effective_mass_kg).sqrt();
-    let gamma_t = constants.damping_factor * (st * geometry.effective_mass_kg).sqrt();
+    // sqrt(St m*) = sqrt(St / Sn) sqrt(Sn m*), and St / Sn = 4 G* / E* is a constant.
+    let gamma_t = gamma_n * constants.tangential_to_normal_damping;
 
     let vn = contact_velocity.dot(&n);
     let normal_force = kn * geometry.overlap_m - gamma_n * vn;
     let vt = contact_velocity - vn * n;
 
     // Keep the history in the current tangent plane at its length, then add this step.
-    let length = shear.norm();
-    if length > 0.0 {
-        *shear -= shear.dot(&n) * n;
-        let projected = shear.norm();
-        if projected > 0.0 {
-            *shear *= length / projected;
+    let length_squared = shear.norm_squared();
+    if length_squared > 0.0 {
+        let projected = *shear - shear.dot(&n) * n;
+        let projected_squared = projected.norm_squared();
+        if projected_squared > 0.0 {
+            *shear = projected * (length_squared / projected_squared).sqrt();
         }
     }
     *shear += vt * dt_s;
 
     let elastic = -st * *shear;
     let limit = constants.friction * normal_force.abs();
-    let elastic_magnitude = elastic.norm();
-    let tangential = if elastic_magnitude > limit {
+    let elastic_squared = elastic.norm_squared();
+    let tangential = if elastic_squared > limit * limit {
         // Sliding: the force is the Coulomb limit; the spring keeps what it can hold.
-        let sliding = elastic * (limit / elastic_magnitude);
+        let sliding = elastic * (limit / elastic_squared.sqrt());
         *shear = -sliding / st;
         sliding
     } else {

@@ -59,6 +59,9 @@ pub struct PairConstants {
     /// `-2 sqrt(5/6) β` with `β = ln e / sqrt(ln² e + π²)`: the damping coefficients
     /// are this times `sqrt(S m*)`. Zero for e = 1.
     pub damping_factor: Real,
+    /// `sqrt(St / Sn) = sqrt(4 G* / E*)`: the tangential damping coefficient over the
+    /// normal one.
+    pub tangential_to_normal_damping: Real,
     /// Sliding friction μ (the smaller of the two materials', as a conservative choice
     /// when they differ; LIGGGHTS takes it per type pair).
     pub friction: Real,
@@ -76,9 +79,12 @@ impl PairConstants {
             2.0 * (2.0 - m.poisson_ratio) * (1.0 + m.poisson_ratio) / m.youngs_modulus_pa
         };
         let restitution = a.restitution.min(b.restitution);
+        let effective_youngs_pa = 1.0 / inv_e;
+        let effective_shear_pa = 1.0 / (shear_term(a) + shear_term(b));
         Self {
-            effective_youngs_pa: 1.0 / inv_e,
-            effective_shear_pa: 1.0 / (shear_term(a) + shear_term(b)),
+            effective_youngs_pa,
+            effective_shear_pa,
+            tangential_to_normal_damping: (4.0 * effective_shear_pa / effective_youngs_pa).sqrt(),
             damping_factor: damping_factor(restitution),
             friction: a.friction.min(b.friction),
             rolling_friction: a.rolling_friction.min(b.rolling_friction),

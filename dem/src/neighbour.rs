@@ -64,14 +64,28 @@ impl CellGrid {
         (c[2] * self.dims[1] + c[1]) * self.dims[0] + c[0]
     }
 
-    /// Calls `visit` with the linear index of each cell of the 3×3×3 block around `c`.
+    /// Calls `visit` with the linear index of each of the up to 13 cells after cell
+    /// `cell` in the 3×3×3 block around it (half the neighbours: each pair of
+    /// neighbouring cells is visited from one side only).
     #[inline]
-    pub fn for_each_neighbour_cell(&self, c: [usize; 3], mut visit: impl FnMut(usize)) {
-        let range = |k: usize| c[k].saturating_sub(1)..=(c[k] + 1).min(self.dims[k] - 1);
-        for z in range(2) {
-            for y in range(1) {
-                for x in range(0) {
-                    visit(self.index([x, y, z]));
+    pub fn for_each_forward_cell(&self, cell: usize, mut visit: impl FnMut(usize)) {
+        let [nx, ny, nz] = self.dims.map(|d| d as isize);
+        let (x, y, z) = (
+            (cell % self.dims[0]) as isize,
+            ((cell / self.dims[0]) % self.dims[1]) as isize,
+            (cell / (self.dims[0] * self.dims[1])) as isize,
+        );
+        for dz in 0..=1isize {
+            for dy in -1..=1isize {
+                for dx in -1..=1isize {
+                    let forward = dz > 0 || dy > 0 || (dy == 0 && dx > 0);
+                    if !forward {
+                        continue;
+                    }
+                    let (cx, cy, cz) = (x + dx, y + dy, z + dz);
+                    if (0..nx).contains(&cx) && (0..ny).contains(&cy) && (0..nz).contains(&cz) {
+                        visit(self.index([cx as usize, cy as usize, cz as usize]));
+                    }
                 }
             }
         }
@@ -131,6 +145,8 @@ pub struct PairList {
     pub partner: Vec<u32>,
     /// Tangential history of each pair, m (zero when not in contact).
     pub shear_m: Vec<Vec3>,
+    /// Whether each pair touched in the last force computation.
+    pub in_contact: Vec<bool>,
     /// Reverse index: pairs in which particle `j` is the second member are
     /// `reverse_pair[reverse_start[j]..reverse_start[j + 1]]`.
     pub reverse_start: Vec<u32>,
@@ -164,69 +180,91 @@ impl PairList {
         ids: &[u32],
         former_ids: &[u32],
     ) -> Self {
+        let n = positions.len();
         let bins = CellBins::build(grid, positions);
-        let rows: Vec<Vec<(u32, Vec3)>> = (0..positions.len())
+        let within = |i: u32, j: u32| {
+            let (i, j) = (i as usize, j as usize);
+            let reach = radii[i] + radii[j] + skin_m;
+            (positions[j] - positions[i]).norm_squared() < reach * reach
+        };
+        // Each pair once: a cell against itself and its 13 "forward" neighbours.
+        let found: Vec<Vec<(u32, u32)>> = (0..grid.len())
             .into_par_iter()
-            .map(|i| {
-                let p = positions[i];
-                let mut row: Vec<u32> = Vec::new();
-                grid.for_each_neighbour_cell(grid.coords(p), |cell| {
-                    for &j in bins.members(cell) {
-                        if j as usize <= i {
-                            continue;
-                        }
-                        let reach = radii[i] + radii[j as usize] + skin_m;
-                        if (positions[j as usize] - p).norm_squared() < reach * reach {
-                            row.push(j);
-                        }
-                    }
-                });
-                row.sort_unstable();
-                // Carry history: the previous row of this particle, matched by id.
-                let mut with_history = Vec::with_capacity(row.len());
-                let old = former.get(i).map(|&f| f as usize);
-                let old_row: &[u32] = match old {
-                    Some(f) if f + 1 < previous.row_start.len() => {
-                        &previous.partner
-                            [previous.row_start[f] as usize..previous.row_start[f + 1] as usize]
-                    }
-                    _ => &[],
-                };
-                let old_base = old.map_or(0, |f| {
-                    previous.row_start.get(f).copied().unwrap_or(0) as usize
-                });
-                let mut cursor = 0;
-                for j in row {
-                    let id = ids[j as usize];
-                    while cursor < old_row.len() && former_ids[old_row[cursor] as usize] < id {
-                        cursor += 1;
-                    }
-                    let shear =
-                        if cursor < old_row.len() && former_ids[old_row[cursor] as usize] == id {
-                            previous.shear_m[old_base + cursor]
-                        } else {
-                            Vec3::zeros()
-                        };
-                    with_history.push((j, shear));
+            .map(|cell| {
+                let members = bins.members(cell);
+                let mut pairs = Vec::new();
+                if members.is_empty() {
+                    return pairs;
                 }
-                with_history
+                for (a, &i) in members.iter().enumerate() {
+                    for &j in &members[a + 1..] {
+                        if within(i, j) {
+                            pairs.push((i, j));
+                        }
+                    }
+                }
+                grid.for_each_forward_cell(cell, |other| {
+                    for &i in members {
+                        for &j in bins.members(other) {
+                            if within(i, j) {
+                                pairs.push((i.min(j), i.max(j)));
+                            }
+                        }
+                    }
+                });
+                pairs
             })
             .collect();
-
-        let n = positions.len();
-        let mut row_start = Vec::with_capacity(n + 1);
-        row_start.push(0u32);
-        let total: usize = rows.iter().map(Vec::len).sum();
-        let mut partner = Vec::with_capacity(total);
-        let mut shear_m = Vec::with_capacity(total);
-        let mut reverse_count = vec![0u32; n + 1];
-        for row in &rows {
-            for &(j, shear) in row {
-                partner.push(j);
-                shear_m.push(shear);
-                reverse_count[j as usize + 1] += 1;
+        // Rows by first member, each sorted by partner.
+        let mut row_start = vec![0u32; n + 1];
+        for &(i, _) in found.iter().flatten() {
+            row_start[i as usize + 1] += 1;
+        }
+        for i in 0..n {
+            row_start[i + 1] += row_start[i];
+        }
+        let mut fill = row_start.clone();
+        let total = row_start[n] as usize;
+        let mut partner = vec![0u32; total];
+        for &(i, j) in found.iter().flatten() {
+            partner[fill[i as usize] as usize] = j;
+            fill[i as usize] += 1;
+        }
+        let mut shear_m = vec![Vec3::zeros(); total];
+        // Sort rows and carry history: the previous row of the same particle, by id.
+        let mut row_slices = Vec::with_capacity(n);
+        let (mut partner_rest, mut shear_rest) = (&mut partner[..], &mut shear_m[..]);
+        for i in 0..n {
+            let len = (row_start[i + 1] - row_start[i]) as usize;
+            let (p, rest) = partner_rest.split_at_mut(len);
+            partner_rest = rest;
+            let (h, rest) = shear_rest.split_at_mut(len);
+            shear_rest = rest;
+            row_slices.push((i, p, h));
+        }
+        row_slices.into_par_iter().for_each(|(i, row, shear)| {
+            row.sort_unstable();
+            let Some(&f) = former.get(i) else { return };
+            let f = f as usize;
+            if f + 1 >= previous.row_start.len() {
+                return;
             }
-            row_start.push(partner.len() as u32);
+            let base = previous.row_start[f] as usize;
+            let old_row = &previous.partner[base..previous.row_start[f + 1] as usize];
+            let mut cursor = 0;
+            for (slot, &j) in row.iter().enumerate() {
+                let id = ids[j as usize];
+                while cursor < old_row.len() && former_ids[old_row[cursor] as usize] < id {
+                    cursor += 1;
+                }
+                if cursor < old_row.len() && former_ids[old_row[cursor] as usize] == id {
+                    shear[slot] = previous.shear_m[base + cursor];
+                }
+            }
+        });
+        let mut reverse_count = vec![0u32; n + 1];
+        for &j in &partner {
+            reverse_count[j as usize + 1] += 1;
         }
         for j in 0..n {
             reverse_count[j + 1] += reverse_count[j];
@@ -238,10 +276,12 @@ impl PairList {
             reverse_pair[fill[j as usize] as usize] = k as u32;
             fill[j as usize] += 1;
         }
+        let in_contact = shear_m.iter().map(|h| *h != Vec3::zeros()).collect();
         Self {
             row_start,
             partner,
             shear_m,
+            in_contact,
             reverse_start,
             reverse_pair,
         }

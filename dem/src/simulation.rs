@@ -127,11 +127,11 @@ pub struct StageTimers {
     pub rebuilds: u64,
 }
 
-/// The forces of one pair, stored per pair and gathered per particle.
+/// What a touching pair exerts on its second member, stored per pair and gathered
+/// per particle (the first member's share is summed in the pair pass itself).
 #[derive(Debug, Clone, Copy, Default)]
 struct PairLoad {
     force_on_first: Vec3,
-    torque_on_first: Vec3,
     torque_on_second: Vec3,
 }
 
@@ -351,13 +351,13 @@ impl Simulation {
     pub fn step(&mut self) -> Result<(), Unstable> {
         let dt = self.config.timestep_s;
         let started = Instant::now();
-        self.kick_and_drift(dt);
+        let moved = self.kick_and_drift(dt);
         self.time_s += dt;
         self.step += 1;
         self.particle_steps += self.particles.len() as u64;
         self.timers.integrate += started.elapsed();
 
-        if self.needs_rebuild() {
+        if self.needs_rebuild(moved) {
             let started = Instant::now();
             self.rebuild();
             self.timers.neighbours += started.elapsed();
@@ -369,13 +369,12 @@ impl Simulation {
         result
     }
 
-    fn kick_and_drift(&mut self, dt: Real) {
+    /// Half kick and drift of every particle; returns the largest displacement since
+    /// the last rebuild, m. Then records sensor crossings and sink arrivals.
+    fn kick_and_drift(&mut self, dt: Real) -> Real {
         let half = 0.5 * dt;
         let p = &mut self.particles;
-        let sensor = self.sensor_z_m;
-        let sink = self.sink_z_m;
-        let time = self.time_s;
-        let events: Vec<(usize, Option<Crossing>, bool)> = (
+        let moved_squared = (
             p.position_m.par_iter_mut(),
             p.velocity_m_s.par_iter_mut(),
             p.angular_velocity.par_iter_mut(),
@@ -383,43 +382,38 @@ impl Simulation {
             p.torque_n_m.par_iter(),
             p.mass_kg.par_iter(),
             p.radius_m.par_iter(),
-            self.crossed.par_iter_mut(),
-            self.leaving.par_iter(),
+            self.reference_positions.par_iter(),
         )
             .into_par_iter()
-            .enumerate()
-            .filter_map(|(i, (x, v, w, f, tau, &m, &r, crossed, &leaving))| {
+            .with_min_len(256)
+            .map(|(x, v, w, f, tau, &m, &r, x0)| {
                 *v += half / m * f;
                 *w += half / (0.4 * m * r * r) * tau;
-                let z_before = x.z;
                 *x += dt * *v;
-                let mut crossing = None;
-                if let Some(plane) = sensor {
-                    if !*crossed && z_before > plane && x.z <= plane {
-                        *crossed = true;
-                        let fraction = (z_before - plane) / (z_before - x.z);
-                        crossing = Some(Crossing {
-                            time_s: time + fraction * dt,
-                            id: 0,
-                            kind: 0,
-                            radius_m: r,
-                            mass_kg: m,
-                            position_m: *x - (1.0 - fraction) * dt * *v,
-                            velocity_m_s: *v,
-                        });
-                    }
-                }
-                let arrived = !leaving && sink.is_some_and(|s| x.z < s);
-                (crossing.is_some() || arrived).then_some((i, crossing, arrived))
+                (*x - x0).norm_squared()
             })
-            .collect();
-        for (i, crossing, arrived) in events {
-            if let Some(mut crossing) = crossing {
-                crossing.id = self.particles.id[i];
-                crossing.kind = self.particles.kind[i];
-                self.crossings.push(crossing);
+            .reduce(|| 0.0, Real::max);
+        // Sensor and sink: a cheap sequential scan; z before the drift is z - dt vz.
+        let time = self.time_s;
+        for i in 0..self.particles.len() {
+            let (x, v) = (self.particles.position_m[i], self.particles.velocity_m_s[i]);
+            if let Some(plane) = self.sensor_z_m {
+                let z_before = x.z - dt * v.z;
+                if !self.crossed[i] && z_before > plane && x.z <= plane {
+                    self.crossed[i] = true;
+                    let fraction = (z_before - plane) / (z_before - x.z);
+                    self.crossings.push(Crossing {
+                        time_s: time + fraction * dt,
+                        id: self.particles.id[i],
+                        kind: self.particles.kind[i],
+                        radius_m: self.particles.radius_m[i],
+                        mass_kg: self.particles.mass_kg[i],
+                        position_m: x - (1.0 - fraction) * dt * v,
+                        velocity_m_s: v,
+                    });
+                }
             }
-            if arrived {
+            if !self.leaving[i] && self.sink_z_m.is_some_and(|sink| x.z < sink) {
                 self.leaving[i] = true;
                 self.leaving_count += 1;
                 self.removed_mass_kg += self.particles.mass_kg[i];
@@ -428,6 +422,7 @@ impl Simulation {
         for (m, mesh) in self.meshes.iter().enumerate() {
             self.mesh_present[m] = mesh.is_present(time + dt);
         }
+        moved_squared.sqrt()
     }
 
     fn mesh_offsets(&self) -> Vec<Vec3> {
@@ -437,22 +432,14 @@ impl Simulation {
             .collect()
     }
 
-    fn needs_rebuild(&self) -> bool {
-        let moved = self
-            .particles
-            .position_m
-            .par_iter()
-            .zip(self.reference_positions.par_iter())
-            .map(|(x, x0)| (x - x0).norm_squared())
-            .reduce(|| 0.0, Real::max)
-            .sqrt();
+    fn needs_rebuild(&self, moved_m: Real) -> bool {
         let offsets = self.mesh_offsets();
         let wall_moved = offsets
             .iter()
             .zip(&self.reference_offsets)
             .map(|(d, d0)| (d - d0).norm())
             .fold(0.0, Real::max);
-        moved + wall_moved > 0.5 * self.config.skin_m
+        moved_m + wall_moved > 0.5 * self.config.skin_m
     }
 
     /// Removes particles past the sink, rebuilds the pair list and wall candidates.
@@ -483,7 +470,9 @@ impl Simulation {
             &p.id,
             &former_ids,
         );
-        self.pair_loads = vec![PairLoad::default(); self.pairs.len()];
+        // Loads are read only where `in_contact` says this step wrote them.
+        self.pair_loads
+            .resize(self.pairs.len(), PairLoad::default());
         let offsets = self.mesh_offsets();
         self.wall_candidates = WallCandidates::build(
             &self.meshes,
@@ -543,82 +532,118 @@ impl Simulation {
         let mut shear_blocks = Vec::new();
         let mut load_blocks = Vec::new();
         let mut shear_rest: &mut [Vec3] = &mut self.pairs.shear_m;
+        let mut contact_rest: &mut [bool] = &mut self.pairs.in_contact;
         let mut load_rest: &mut [PairLoad] = &mut self.pair_loads;
+        let Particles {
+            position_m,
+            velocity_m_s,
+            angular_velocity,
+            radius_m,
+            mass_kg,
+            kind,
+            force_n,
+            torque_n_m,
+            ..
+        } = &mut self.particles;
+        let mut force_rest: &mut [Vec3] = force_n;
+        let mut torque_rest: &mut [Vec3] = torque_n_m;
+        let mut sum_blocks = Vec::new();
         for first in (0..n).step_by(BLOCK) {
             let last = (first + BLOCK).min(n);
             let len = (rows[last] - rows[first]) as usize;
             let (shear, rest) = shear_rest.split_at_mut(len);
             shear_rest = rest;
-            shear_blocks.push((first, last, shear));
+            let (in_contact, rest) = contact_rest.split_at_mut(len);
+            contact_rest = rest;
+            shear_blocks.push((first, last, shear, in_contact));
             let (loads, rest) = load_rest.split_at_mut(len);
             load_rest = rest;
             load_blocks.push(loads);
+            let (forces, rest) = force_rest.split_at_mut(last - first);
+            force_rest = rest;
+            let (torques, rest) = torque_rest.split_at_mut(last - first);
+            torque_rest = rest;
+            sum_blocks.push((forces, torques));
         }
-        let p = &self.particles;
+        let (position_m, velocity_m_s, angular_velocity) =
+            (&*position_m, &*velocity_m_s, &*angular_velocity);
+        let (radius_m, mass_kg, kind) = (&*radius_m, &*mass_kg, &*kind);
         let partner = &self.pairs.partner;
         let table = &self.table;
         let dt = self.config.timestep_s;
         shear_blocks
             .into_par_iter()
             .zip(load_blocks.into_par_iter())
-            .filter_map(|((first, last, shear), loads)| {
-                let base = rows[first] as usize;
-                let mut worst: Option<(Real, usize, usize)> = None;
-                for i in first..last {
-                    let (xi, vi, wi) = (p.position_m[i], p.velocity_m_s[i], p.angular_velocity[i]);
-                    let (ri, mi, ki) = (p.radius_m[i], p.mass_kg[i], p.kind[i] as usize);
-                    let row = rows[i] as usize..rows[i + 1] as usize;
-                    for (local, &j) in (row.start - base..).zip(&partner[row]) {
-                        let j = j as usize;
-                        let rj = p.radius_m[j];
-                        let offset = xi - p.position_m[j];
-                        let reach = ri + rj;
-                        let distance_squared = offset.norm_squared();
-                        if distance_squared >= reach * reach {
-                            shear[local] = Vec3::zeros();
-                            loads[local] = PairLoad::default();
-                            continue;
+            .zip(sum_blocks.into_par_iter())
+            .filter_map(
+                |(((first, last, shear, in_contact), loads), (forces, torques))| {
+                    let base = rows[first] as usize;
+                    let mut worst: Option<(Real, usize, usize)> = None;
+                    for i in first..last {
+                        let mut force_i = Vec3::zeros();
+                        let mut torque_i = Vec3::zeros();
+                        let (xi, vi, wi) = (position_m[i], velocity_m_s[i], angular_velocity[i]);
+                        let (ri, mi, ki) = (radius_m[i], mass_kg[i], kind[i] as usize);
+                        let row = rows[i] as usize..rows[i + 1] as usize;
+                        for (local, &j) in (row.start - base..).zip(&partner[row]) {
+                            let j = j as usize;
+                            let rj = radius_m[j];
+                            let offset = xi - position_m[j];
+                            let reach = ri + rj;
+                            let distance_squared = offset.norm_squared();
+                            if distance_squared >= reach * reach {
+                                // Only touching pairs carry a history and a load.
+                                if in_contact[local] {
+                                    in_contact[local] = false;
+                                    shear[local] = Vec3::zeros();
+                                }
+                                continue;
+                            }
+                            let distance = distance_squared.sqrt();
+                            let overlap = reach - distance;
+                            let ratio = overlap / ri.min(rj);
+                            if worst.is_none_or(|(w, _, _)| ratio > w) {
+                                worst = Some((ratio, i, j));
+                            }
+                            if distance == 0.0 {
+                                in_contact[local] = false;
+                                continue;
+                            }
+                            in_contact[local] = true;
+                            let n = offset / distance;
+                            let mj = mass_kg[j];
+                            let wj = angular_velocity[j];
+                            let contact_velocity =
+                                vi - velocity_m_s[j] - (ri * wi + rj * wj).cross(&n);
+                            let geometry = ContactGeometry {
+                                normal: n,
+                                overlap_m: overlap,
+                                effective_radius_m: ri * rj / reach,
+                                effective_mass_kg: mi * mj / (mi + mj),
+                            };
+                            let constants = table.particles(ki, kind[j] as usize);
+                            let result = hertz_mindlin(
+                                constants,
+                                &geometry,
+                                contact_velocity,
+                                wi - wj,
+                                &mut shear[local],
+                                dt,
+                            );
+                            let lever = n.cross(&result.tangential);
+                            force_i += result.force;
+                            torque_i += -ri * lever + result.rolling_torque;
+                            loads[local] = PairLoad {
+                                force_on_first: result.force,
+                                torque_on_second: -rj * lever - result.rolling_torque,
+                            };
                         }
-                        let distance = distance_squared.sqrt();
-                        let overlap = reach - distance;
-                        let ratio = overlap / ri.min(rj);
-                        if worst.is_none_or(|(w, _, _)| ratio > w) {
-                            worst = Some((ratio, i, j));
-                        }
-                        if distance == 0.0 {
-                            loads[local] = PairLoad::default();
-                            continue;
-                        }
-                        let n = offset / distance;
-                        let mj = p.mass_kg[j];
-                        let wj = p.angular_velocity[j];
-                        let contact_velocity =
-                            vi - p.velocity_m_s[j] - (ri * wi + rj * wj).cross(&n);
-                        let geometry = ContactGeometry {
-                            normal: n,
-                            overlap_m: overlap,
-                            effective_radius_m: ri * rj / reach,
-                            effective_mass_kg: mi * mj / (mi + mj),
-                        };
-                        let constants = table.particles(ki, p.kind[j] as usize);
-                        let result = hertz_mindlin(
-                            constants,
-                            &geometry,
-                            contact_velocity,
-                            wi - wj,
-                            &mut shear[local],
-                            dt,
-                        );
-                        let lever = n.cross(&result.tangential);
-                        loads[local] = PairLoad {
-                            force_on_first: result.force,
-                            torque_on_first: -ri * lever + result.rolling_torque,
-                            torque_on_second: -rj * lever - result.rolling_torque,
-                        };
+                        forces[i - first] = force_i;
+                        torques[i - first] = torque_i;
                     }
-                }
-                worst
-            })
+                    worst
+                },
+            )
             .reduce_with(|a, b| {
                 if b.0 > a.0 || (b.0 == a.0 && b.1 < a.1) {
                     b
@@ -667,18 +692,17 @@ impl Simulation {
             .into_par_iter()
             .enumerate()
             .filter_map(|(i, (force, torque, contacts))| {
-                let mut f = mass[i] * gravity;
-                let mut t = Vec3::zeros();
-                for load in &loads[pairs.row_start[i] as usize..pairs.row_start[i + 1] as usize] {
-                    f += load.force_on_first;
-                    t += load.torque_on_first;
-                }
+                // The pair pass left this particle's own row sum here.
+                let mut f = *force;
+                let mut t = *torque;
                 for &k in &pairs.reverse_pair
                     [pairs.reverse_start[i] as usize..pairs.reverse_start[i + 1] as usize]
                 {
-                    let load = &loads[k as usize];
-                    f -= load.force_on_first;
-                    t += load.torque_on_second;
+                    if pairs.in_contact[k as usize] {
+                        let load = &loads[k as usize];
+                        f -= load.force_on_first;
+                        t += load.torque_on_second;
+                    }
                 }
                 let particle = ParticleView {
                     position_m: position[i],
@@ -689,7 +713,7 @@ impl Simulation {
                     kind: kind[i] as usize,
                 };
                 let wall = wall_load(&walls, candidates.of(i), &particle, contacts);
-                *force = f + wall.force_n;
+                *force = f + wall.force_n + mass[i] * gravity;
                 *torque = t + wall.torque_n_m;
                 (wall.worst_overlap_ratio > 0.0).then_some((wall.worst_overlap_ratio, i))
             })
@@ -715,6 +739,7 @@ impl Simulation {
             p.radius_m.par_iter(),
         )
             .into_par_iter()
+            .with_min_len(256)
             .enumerate()
             .filter_map(|(i, (v, w, f, tau, &m, &r))| {
                 *v += half / m * f;

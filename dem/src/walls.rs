@@ -109,6 +109,9 @@ impl WallCandidates {
                     let reach = radii_m[i] + skin_m;
                     let p = positions_m[i];
                     for &t in indexes[m].near(p - offsets_m[m]) {
+                        if !mesh.may_reach(t, p, offsets_m[m], reach) {
+                            continue;
+                        }
                         let q = mesh.closest_point(t, p, offsets_m[m]).point;
                         if (p - q).norm_squared() < reach * reach {
                             row.push((m as u16, t));
@@ -259,13 +262,16 @@ pub fn wall_load(
     }
     let p = particle.position_m;
     let r = particle.radius_m;
-    let mut touches: [Option<Touch>; 16] = [None; 16];
+    let mut touches: [Option<Touch>; 8] = [None; 8];
     let mut count = 0;
     for &(m, t) in candidates {
         if !walls.present[m as usize] || count == touches.len() {
             continue;
         }
         let mesh = &walls.meshes[m as usize];
+        if !mesh.may_reach(t, p, walls.offsets_m[m as usize], r) {
+            continue;
+        }
         let hit = mesh.closest_point(t, p, walls.offsets_m[m as usize]);
         let offset = p - hit.point;
         let distance_squared = offset.norm_squared();
@@ -285,6 +291,10 @@ pub fn wall_load(
         });
         count += 1;
     }
+    if count == 0 {
+        contacts.len = 0;
+        return load;
+    }
     let touches = &mut touches[..count];
 
     // Rules 1 and 2: faces first, then edges, then vertices, each only once.
@@ -294,7 +304,7 @@ pub fn wall_load(
         _ => 2,
     };
     touches.sort_by_key(rank);
-    let mut counted: [Option<Touch>; MAX_WALL_CONTACTS * 2] = [None; MAX_WALL_CONTACTS * 2];
+    let mut counted: [Option<Touch>; 8] = [None; 8];
     let mut n_counted = 0;
     for touch in touches.iter().flatten() {
         let mesh = &walls.meshes[touch.mesh as usize];

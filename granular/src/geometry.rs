@@ -161,10 +161,17 @@ impl HopperGeometry {
         TriMesh::revolve(&profile, self.segments)
     }
 
-    /// The plug that closes the outlet while the hopper fills: a disk at `z = 0`,
-    /// wider than the outlet by `overlap_m` so nothing slips past its rim.
+    /// The plug that closes the outlet while the hopper fills: a square of two
+    /// triangles at `z = 0` whose inscribed circle is wider than the outlet by
+    /// `overlap_m`, so nothing slips past its rim. Two large facets rather than a
+    /// fine disk: a particle resting on a finely divided plug would touch dozens of
+    /// facets meeting at its centre, which every solver then has to sort out.
     pub fn plug_mesh(&self, overlap_m: f64) -> TriMesh {
-        TriMesh::disk(self.outlet_radius_m() + overlap_m, 0.0, self.segments, 3)
+        let h = self.outlet_radius_m() + overlap_m;
+        TriMesh {
+            vertices: vec![[-h, -h, 0.0], [h, -h, 0.0], [h, h, 0.0], [-h, h, 0.0]],
+            triangles: vec![[0, 1, 2], [0, 2, 3]],
+        }
     }
 
     /// The internal valve: a cone pointing up with its base `valve_gap_m` above the

@@ -107,6 +107,10 @@ pub struct WallMesh {
     mesh: WeldedMesh,
     /// Triangles on each edge (`u32::MAX` where an edge has only one).
     edge_triangles: Vec<[u32; 2]>,
+    /// Each triangle's bounding sphere (centre, radius m), for a quick rejection.
+    bounds: Vec<(Vec3, Real)>,
+    /// Each triangle's plane (unit normal, offset m), for a quick rejection.
+    planes: Vec<(Vec3, Real)>,
     /// How the wall moves.
     pub motion: Motion,
     /// The wall disappears at this time, s (`None`: never).
@@ -136,10 +140,30 @@ impl WallMesh {
                 }
             }
         }
+        let bounds = (0..mesh.triangles.len())
+            .map(|t| {
+                let [a, b, c] = mesh.corners(t).map(Vec3::from);
+                let centre = (a + b + c) / 3.0;
+                let radius = [a, b, c]
+                    .iter()
+                    .map(|v| (v - centre).norm())
+                    .fold(0.0, Real::max);
+                (centre, radius)
+            })
+            .collect();
+        let planes = (0..mesh.triangles.len())
+            .map(|t| {
+                let [a, b, c] = mesh.corners(t).map(Vec3::from);
+                let normal = (b - a).cross(&(c - a)).normalize();
+                (normal, normal.dot(&a))
+            })
+            .collect();
         Self {
             name: name.into(),
             mesh,
             edge_triangles,
+            bounds,
+            planes,
             motion,
             removed_at_s: None,
         }
@@ -166,6 +190,20 @@ impl WallMesh {
         let [a, b, c] = self.mesh.triangles[index as usize];
         let v = |i: u32| Vec3::from(self.mesh.vertices[i as usize]);
         [v(a), v(b), v(c)]
+    }
+
+    /// Whether triangle `index`, displaced by `offset_m`, may come within `reach_m`
+    /// of `p` (bounding-sphere and plane tests: false means certainly not).
+    #[inline]
+    pub fn may_reach(&self, index: u32, p: Vec3, offset_m: Vec3, reach_m: Real) -> bool {
+        let local = p - offset_m;
+        let (centre, radius) = self.bounds[index as usize];
+        let limit = radius + reach_m;
+        if (local - centre).norm_squared() >= limit * limit {
+            return false;
+        }
+        let (normal, offset) = self.planes[index as usize];
+        (normal.dot(&local) - offset).abs() < reach_m
     }
 
     /// The point of triangle `index`, displaced by `offset_m`, closest to `p`.

@@ -1,0 +1,353 @@
+//! The conical hopper case that every DEM adapter renders: its parameters (SI, with the
+//! verified LIGGGHTS deck's values as defaults), the values derived from them that the
+//! templates use (fill region, sensor and sink planes, step counts, seeds), the checks
+//! a case must pass, and the wall meshes written beside each deck.
+//!
+//! LIGGGHTS and the native kernel render the same context, so one design point is the
+//! same physical case on either solver.
+
+use std::path::Path;
+
+use orch_granular::HopperGeometry;
+use tera::Context;
+
+use crate::primes::prime_seed;
+use crate::{in_run_dir, Case, ParameterSpec, RenderError};
+
+/// Half-thickness of the band around the sensor plane that LIGGGHTS dumps, m.
+pub const SENSOR_BAND_M: f64 = 0.005;
+
+const fn spec(
+    name: &'static str,
+    default: f64,
+    unit: &'static str,
+    min: f64,
+    max: f64,
+    description: &'static str,
+) -> ParameterSpec {
+    ParameterSpec {
+        name,
+        default,
+        unit,
+        min,
+        max,
+        description,
+    }
+}
+
+/// Parameters of the hopper template; defaults are the verified deck of
+/// `shared/solvers/README.md` (3000 glass-like spheres of 4 and 2 mm, 24 mm outlet).
+pub static PARAMETERS: &[ParameterSpec] = &[
+    spec("n_particles", 3000.0, "-", 1.0, 1e7, "particles inserted"),
+    spec(
+        "coarse_diameter",
+        0.004,
+        "m",
+        1e-5,
+        0.1,
+        "diameter of coarse particles (type 1)",
+    ),
+    spec(
+        "fine_diameter",
+        0.002,
+        "m",
+        1e-5,
+        0.1,
+        "diameter of fine particles (type 2)",
+    ),
+    spec(
+        "fine_mass_fraction",
+        0.5,
+        "-",
+        0.01,
+        0.99,
+        "mass fraction of fines in the mixture",
+    ),
+    spec(
+        "density",
+        2500.0,
+        "kg/m^3",
+        100.0,
+        20_000.0,
+        "particle density",
+    ),
+    spec(
+        "youngs_modulus",
+        5e6,
+        "Pa",
+        1e4,
+        1e12,
+        "Young's modulus of particles and walls",
+    ),
+    spec("poisson_ratio", 0.3, "-", 0.0, 0.499, "Poisson ratio"),
+    spec(
+        "restitution",
+        0.6,
+        "-",
+        0.01,
+        1.0,
+        "coefficient of restitution",
+    ),
+    spec(
+        "friction",
+        0.5,
+        "-",
+        0.0,
+        2.0,
+        "sliding friction coefficient",
+    ),
+    spec(
+        "outlet_diameter",
+        0.024,
+        "m",
+        1e-3,
+        1.0,
+        "outlet diameter D",
+    ),
+    spec(
+        "cone_half_angle",
+        35.0,
+        "deg",
+        1.0,
+        89.0,
+        "cone half-angle from the vertical",
+    ),
+    spec(
+        "cone_height",
+        0.040,
+        "m",
+        1e-3,
+        10.0,
+        "height of the conical section",
+    ),
+    spec(
+        "cylinder_height",
+        0.060,
+        "m",
+        0.0,
+        10.0,
+        "height of the cylinder above the cone",
+    ),
+    spec(
+        "valve_diameter",
+        0.0,
+        "m",
+        0.0,
+        1.0,
+        "internal cone valve diameter; 0 = no valve",
+    ),
+    spec(
+        "valve_gap",
+        0.010,
+        "m",
+        0.0,
+        1.0,
+        "valve base height above the outlet (h)",
+    ),
+    spec("valve_height", 0.008, "m", 0.0, 1.0, "valve cone height"),
+    spec(
+        "amplitude",
+        0.0,
+        "m",
+        0.0,
+        0.1,
+        "vertical vibration amplitude a; 0 = none",
+    ),
+    spec(
+        "frequency",
+        50.0,
+        "Hz",
+        0.0,
+        1000.0,
+        "vertical vibration frequency f",
+    ),
+    spec("timestep", 2e-5, "s", 1e-8, 1e-3, "time step"),
+    spec(
+        "fill_time",
+        0.3,
+        "s",
+        0.01,
+        100.0,
+        "filling and settling time, outlet closed",
+    ),
+    spec(
+        "discharge_time",
+        0.6,
+        "s",
+        0.01,
+        1000.0,
+        "longest discharge time after opening",
+    ),
+    spec(
+        "sensor_depth",
+        0.005,
+        "m",
+        0.0,
+        1.0,
+        "sensor plane distance below the outlet",
+    ),
+    spec(
+        "sensor_every",
+        50.0,
+        "steps",
+        1.0,
+        1e6,
+        "steps between sensor-band dumps",
+    ),
+    spec(
+        "mesh_segments",
+        48.0,
+        "-",
+        8.0,
+        1024.0,
+        "facets around the hopper circumference",
+    ),
+];
+
+/// The hopper geometry of a case.
+pub fn geometry(case: &Case) -> HopperGeometry {
+    HopperGeometry {
+        outlet_diameter_m: case.get("outlet_diameter"),
+        cone_half_angle_deg: case.get("cone_half_angle"),
+        cone_height_m: case.get("cone_height"),
+        cylinder_height_m: case.get("cylinder_height"),
+        valve_diameter_m: case.get("valve_diameter"),
+        valve_gap_m: case.get("valve_gap"),
+        valve_height_m: case.get("valve_height"),
+        segments: case.get("mesh_segments").round() as usize,
+        band_height_m: 0.005,
+    }
+}
+
+/// Height of the sensor plane, m (below the outlet at z = 0).
+pub fn sensor_z_m(case: &Case) -> f64 {
+    -case.get("sensor_depth")
+}
+
+/// Height of the sink plane that counts and removes particles, just below the
+/// dumped band around the sensor plane.
+pub fn sink_z_m(case: &Case) -> f64 {
+    sensor_z_m(case) - SENSOR_BAND_M - 0.003
+}
+
+/// Every value the template sees: the parameters plus what follows from them.
+pub fn context(case: &Case) -> Context {
+    let geometry = geometry(case);
+    let mut context = Context::new();
+    for (name, value) in &case.parameters.0 {
+        context.insert(name.as_str(), value);
+    }
+    let coarse_radius = 0.5 * case.get("coarse_diameter");
+    let sensor_z = sensor_z_m(case);
+    // Fill region: above the valve (or the lower third of the cone) up to the rim,
+    // one coarse diameter from the wall.
+    let fill_bottom = if geometry.has_valve() {
+        geometry.valve_gap_m + geometry.valve_height_m + coarse_radius * 2.0
+    } else {
+        geometry.cone_height_m / 3.0
+    };
+    let fill_top = geometry.total_height_m() - 2.0 * coarse_radius;
+    let fill_radius = geometry.radius_at(fill_bottom) - 2.0 * coarse_radius;
+    let half_width = geometry.top_radius_m() + 0.005;
+    let delete_z = sink_z_m(case);
+    let derived = [
+        ("coarse_radius", coarse_radius),
+        ("fine_radius", 0.5 * case.get("fine_diameter")),
+        ("coarse_mass_fraction", 1.0 - case.get("fine_mass_fraction")),
+        ("fill_bottom", fill_bottom),
+        ("fill_top", fill_top),
+        ("fill_radius", fill_radius),
+        ("box_half_width", half_width),
+        ("box_bottom", delete_z - 0.01),
+        ("box_top", geometry.total_height_m() + 0.005),
+        ("sensor_z", sensor_z),
+        ("sensor_band_top", sensor_z + SENSOR_BAND_M),
+        ("sensor_band_bottom", sensor_z - SENSOR_BAND_M),
+        ("delete_z", delete_z),
+        ("vibration_period", 1.0 / case.get("frequency").max(1e-12)),
+    ];
+    for (name, value) in derived {
+        context.insert(name, &value);
+    }
+    let steps = |seconds: f64| (seconds / case.get("timestep")).round() as u64;
+    context.insert("fill_steps", &steps(case.get("fill_time")));
+    let chunk = 1000u64;
+    context.insert("chunk_steps", &chunk);
+    context.insert(
+        "discharge_chunks",
+        &steps(case.get("discharge_time")).div_ceil(chunk),
+    );
+    context.insert("n_particles_int", &(case.get("n_particles").round() as u64));
+    context.insert(
+        "sensor_every_int",
+        &(case.get("sensor_every").round() as u64),
+    );
+    context.insert("has_valve", &geometry.has_valve());
+    context.insert(
+        "vibrate",
+        &(case.get("amplitude") > 0.0 && case.get("frequency") > 0.0),
+    );
+    // Particles that stay behind on the walls: stop when at most this many remain.
+    let leftover = ((case.get("n_particles") * 0.002).round() as u64).max(5);
+    context.insert("leftover", &leftover);
+    for (index, name) in ["seed_coarse", "seed_fine", "seed_mix", "seed_insert"]
+        .iter()
+        .enumerate()
+    {
+        context.insert(*name, &prime_seed(case.seed, index as u64));
+    }
+    context
+}
+
+/// Checks a resolved case beyond per-parameter ranges: the geometry can be built, the
+/// fines are not larger than the coarse particles, and the outlet lets them through.
+pub fn check(case: &Case) -> Result<(), RenderError> {
+    geometry(case)
+        .validate()
+        .map_err(|e| RenderError::InvalidCase(e.to_string()))?;
+    let (coarse, fine) = (case.get("coarse_diameter"), case.get("fine_diameter"));
+    if fine > coarse {
+        return Err(RenderError::InvalidCase(format!(
+            "fine_diameter ({fine} m) must not exceed coarse_diameter ({coarse} m)"
+        )));
+    }
+    let outlet = case.get("outlet_diameter");
+    if outlet <= coarse {
+        return Err(RenderError::InvalidCase(format!(
+            "outlet_diameter ({outlet} m) must exceed coarse_diameter ({coarse} m), or nothing can flow"
+        )));
+    }
+    Ok(())
+}
+
+/// Writes a file into the run directory.
+pub(crate) fn write(run_dir: &Path, file: &str, text: &str) -> Result<(), RenderError> {
+    let path = in_run_dir(run_dir, file);
+    std::fs::write(&path, text).map_err(|source| RenderError::Write { path, source })
+}
+
+/// Writes the walls as ASCII STL into `run_dir`: `hopper.stl`, `plug.stl` (closes the
+/// outlet while filling), `valve.stl` when the case has a valve, and `sink.stl` (the
+/// plane that removes particles), and creates `post/` for the solver's output.
+pub fn write_meshes(case: &Case, run_dir: &Path) -> Result<(), RenderError> {
+    let geometry = geometry(case);
+    let post = run_dir.join("post");
+    std::fs::create_dir_all(&post).map_err(|source| RenderError::Write { path: post, source })?;
+    write(
+        run_dir,
+        "hopper.stl",
+        &geometry.wall_mesh().to_ascii_stl("hopper"),
+    )?;
+    let plug_overlap = 0.5 * case.get("coarse_diameter");
+    write(
+        run_dir,
+        "plug.stl",
+        &geometry.plug_mesh(plug_overlap).to_ascii_stl("plug"),
+    )?;
+    if let Some(valve) = geometry.valve_mesh() {
+        write(run_dir, "valve.stl", &valve.to_ascii_stl("valve"))?;
+    }
+    let sink = geometry.sensor_mesh(geometry.top_radius_m() + 0.005, sink_z_m(case));
+    write(run_dir, "sink.stl", &sink.to_ascii_stl("sink"))?;
+    Ok(())
+}

@@ -1,0 +1,95 @@
+//! Reader of `log.native`, the native kernel's log: a thermo table
+//! (`step time_s particles kinetic_energy_J discharged_mass_kg`), then
+//! `Loop time of <s> s on <n> threads for <steps> steps with <p> particle-steps`.
+//! A run that stopped with an error has an `ERROR:` line and no loop line.
+
+use std::io::BufRead;
+use std::path::Path;
+
+use crate::ParseError;
+
+/// What the native log says about a run.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct NativeLog {
+    /// Wall time of the time loop, s.
+    pub loop_time_s: f64,
+    /// Steps taken.
+    pub steps: u64,
+    /// Σ particles × steps.
+    pub particle_steps: f64,
+    /// `(time s, kinetic energy J)` from the thermo table.
+    pub kinetic_energy: Vec<(f64, f64)>,
+    /// `(time s, discharged mass kg)` from the thermo table.
+    pub discharged_mass: Vec<(f64, f64)>,
+}
+
+/// The thermo table's header.
+pub const THERMO_HEADER: &str = "step time_s particles kinetic_energy_J discharged_mass_kg";
+
+/// Reads a native log; `path` names the file in errors.
+pub fn read_log<R: BufRead>(reader: R, path: &Path) -> Result<NativeLog, ParseError> {
+    let malformed = |line: usize, message: String| ParseError::Malformed {
+        path: path.to_path_buf(),
+        line,
+        message,
+    };
+    let mut log = NativeLog::default();
+    let mut in_table = false;
+    let mut finished = false;
+    let mut last_line = 0;
+    for (index, line) in reader.lines().enumerate() {
+        let line = line.map_err(|source| ParseError::Read {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        last_line = index + 1;
+        let trimmed = line.trim();
+        if trimmed == THERMO_HEADER {
+            in_table = true;
+        } else if let Some(error) = trimmed.strip_prefix("ERROR: ") {
+            return Err(malformed(index + 1, format!("the run failed: {error}")));
+        } else if let Some(rest) = trimmed.strip_prefix("Loop time of ") {
+            let words: Vec<&str> = rest.split_whitespace().collect();
+            // <s> s on <n> threads for <steps> steps with <p> particle-steps
+            let parsed = (words.len() >= 9)
+                .then(|| {
+                    Some((
+                        words[0].parse::<f64>().ok()?,
+                        words[6].parse::<u64>().ok()?,
+                        words[9].parse::<f64>().ok()?,
+                    ))
+                })
+                .flatten();
+            let (seconds, steps, particle_steps) = parsed.ok_or_else(|| {
+                malformed(index + 1, format!("cannot read the loop line `{trimmed}`"))
+            })?;
+            log.loop_time_s = seconds;
+            log.steps = steps;
+            log.particle_steps = particle_steps;
+            in_table = false;
+            finished = true;
+        } else if in_table {
+            let values: Option<Vec<f64>> =
+                trimmed.split_whitespace().map(|f| f.parse().ok()).collect();
+            match values {
+                Some(v) if v.len() == 5 => {
+                    log.kinetic_energy.push((v[1], v[3]));
+                    log.discharged_mass.push((v[1], v[4]));
+                }
+                _ => {
+                    return Err(malformed(
+                        index + 1,
+                        format!("expected a thermo row ({THERMO_HEADER}), found `{trimmed}`"),
+                    ))
+                }
+            }
+        }
+    }
+    if !finished {
+        return Err(malformed(
+            last_line,
+            "the log ends without a `Loop time` line: the run did not finish".to_string(),
+        ));
+    }
+    Ok(log)
+}

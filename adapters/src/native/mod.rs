@@ -1,0 +1,189 @@
+//! orch's native DEM kernel (`orch-dem`, crate `orch-dem`): the hopper case as a TOML
+//! case file.
+//!
+//! The default template `templates/native/hopper.toml.tera` describes the same case as
+//! the LIGGGHTS deck (same parameters, the same derived values from
+//! [`crate::hopper::context`], the same STL walls). The kernel detects crossings of the
+//! sensor plane itself, interpolated within the step, and writes them to
+//! `post/crossings.csv`; its log `log.native` holds a thermo table and a `Loop time`
+//! line like LIGGGHTS's.
+
+mod log;
+
+use std::fs::File;
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+
+use orch_granular::Crossing;
+
+pub use log::{read_log, NativeLog};
+
+use crate::hopper;
+use crate::liggghts::render_template;
+use crate::{
+    in_run_dir, Case, CommandSpec, Observations, ParameterSpec, ParseError, RenderError, Series,
+    SolverAdapter,
+};
+
+/// The native kernel's adapter.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Native;
+
+/// Name of the rendered case file in the run directory.
+pub const CASE_FILE: &str = "hopper.toml";
+/// The kernel's log in the run directory.
+pub const LOG_FILE: &str = "log.native";
+/// The sensor's crossings, relative to the run directory.
+pub const CROSSINGS_FILE: &str = "post/crossings.csv";
+/// Name of the kernel's program.
+pub const PROGRAM: &str = "orch-dem";
+/// Header line of [`CROSSINGS_FILE`].
+pub const CROSSINGS_HEADER: &str =
+    "time_s,id,type,radius_m,mass_kg,x_m,y_m,z_m,vx_m_s,vy_m_s,vz_m_s";
+
+/// The `orch-dem` program: the one installed beside the running executable (as
+/// `cargo install --path orchestrator` installs both), else the name, found on PATH.
+pub fn program_path() -> String {
+    std::env::current_exe()
+        .ok()
+        .and_then(|exe| exe.parent().map(|dir| dir.join(PROGRAM)))
+        .filter(|candidate| candidate.is_file())
+        .map(|path| path.display().to_string())
+        .unwrap_or_else(|| PROGRAM.to_string())
+}
+
+impl SolverAdapter for Native {
+    fn name(&self) -> &'static str {
+        "native"
+    }
+
+    fn parameters(&self) -> &'static [ParameterSpec] {
+        hopper::PARAMETERS
+    }
+
+    fn default_template_name(&self) -> &'static str {
+        "templates/native/hopper.toml.tera"
+    }
+
+    fn install_hint(&self) -> &'static str {
+        "cargo install --path orchestrator (it installs orch-dem beside orch)"
+    }
+
+    fn default_template(&self) -> &'static str {
+        include_str!("../../../templates/native/hopper.toml.tera")
+    }
+
+    fn check(&self, case: &Case) -> Result<(), RenderError> {
+        hopper::check(case)
+    }
+
+    fn render(
+        &self,
+        case: &Case,
+        template_name: &str,
+        template: &str,
+        run_dir: &Path,
+    ) -> Result<(), RenderError> {
+        self.check(case)?;
+        let text = render_template(template_name, template, &hopper::context(case))?;
+        hopper::write_meshes(case, run_dir)?;
+        hopper::write(run_dir, CASE_FILE, &text)
+    }
+
+    fn command(&self, _case: &Case) -> CommandSpec {
+        CommandSpec {
+            program: program_path(),
+            args: ["run", CASE_FILE, "--log", LOG_FILE]
+                .iter()
+                .map(|s| s.to_string())
+                .collect(),
+            env: Default::default(),
+            cores: 1,
+            log_file: LOG_FILE.to_string(),
+        }
+    }
+
+    fn parse(&self, _case: &Case, run_dir: &Path) -> Result<Observations, ParseError> {
+        let open = |file: &str| {
+            let path = in_run_dir(run_dir, file);
+            File::open(&path)
+                .map(BufReader::new)
+                .map_err(|source| ParseError::Read {
+                    path: path.clone(),
+                    source,
+                })
+                .map(|reader| (reader, path))
+        };
+        let (reader, log_path) = open(LOG_FILE)?;
+        let log = read_log(reader, &log_path)?;
+        let (reader, crossings_path) = open(CROSSINGS_FILE)?;
+        let crossings = read_crossings(reader, &crossings_path)?;
+        Ok(Observations {
+            crossings,
+            solver_loop_time_s: Some(log.loop_time_s),
+            particle_steps: Some(log.particle_steps),
+            series: vec![Series {
+                name: "kinetic_energy".to_string(),
+                points: log.kinetic_energy,
+            }],
+        })
+    }
+}
+
+/// Reads the kernel's crossings CSV, in time order.
+pub fn read_crossings<R: BufRead>(reader: R, path: &Path) -> Result<Vec<Crossing>, ParseError> {
+    let malformed = |line: usize, message: String| ParseError::Malformed {
+        path: PathBuf::from(path),
+        line,
+        message,
+    };
+    let mut crossings = Vec::new();
+    for (index, line) in reader.lines().enumerate() {
+        let line = line.map_err(|source| ParseError::Read {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        if index == 0 {
+            if line.trim() != CROSSINGS_HEADER {
+                return Err(malformed(
+                    1,
+                    format!("expected the header `{CROSSINGS_HEADER}`, found `{line}`"),
+                ));
+            }
+            continue;
+        }
+        if line.trim().is_empty() {
+            continue;
+        }
+        let fields: Vec<&str> = line.split(',').collect();
+        let numbers: Option<Vec<f64>> = fields.iter().map(|f| f.trim().parse().ok()).collect();
+        let numbers = numbers
+            .filter(|n| n.len() == 11 && n.iter().all(|v| v.is_finite()))
+            .ok_or_else(|| {
+                malformed(
+                    index + 1,
+                    format!("expected 11 finite numbers ({CROSSINGS_HEADER}), found `{line}`"),
+                )
+            })?;
+        crossings.push(Crossing {
+            time_s: numbers[0],
+            id: numbers[1] as u64,
+            particle_type: numbers[2] as u32,
+            radius_m: numbers[3],
+            mass_kg: numbers[4],
+            position_m: [numbers[5], numbers[6], numbers[7]],
+            velocity_m_per_s: [numbers[8], numbers[9], numbers[10]],
+        });
+    }
+    if crossings.is_empty() {
+        return Err(malformed(
+            1,
+            "no particle crossed the sensor plane: the hopper did not discharge (is the outlet blocked or the run too short?)".to_string(),
+        ));
+    }
+    crossings.sort_by(|a, b| a.time_s.total_cmp(&b.time_s));
+    Ok(crossings)
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,148 @@
+use std::io::Cursor;
+use std::path::Path;
+
+use super::*;
+use crate::ResolvedParameters;
+
+fn case_with(overrides: &[(&str, f64)]) -> Case {
+    let mut parameters = ResolvedParameters::defaults(hopper::PARAMETERS);
+    for (name, value) in overrides {
+        parameters.set(name, *value);
+    }
+    Case {
+        parameters,
+        seed: 1,
+    }
+}
+
+/// Renders `case` with the default template, checks that the kernel accepts the case
+/// file and its meshes, and returns the case file's text.
+fn check(case: &Case) -> String {
+    let dir = tempfile::tempdir().unwrap();
+    let adapter = Native;
+    adapter
+        .render(
+            case,
+            adapter.default_template_name(),
+            adapter.default_template(),
+            dir.path(),
+        )
+        .unwrap();
+    let text = std::fs::read_to_string(dir.path().join(CASE_FILE)).unwrap();
+    let parsed = orch_dem::case::Case::parse(&text).unwrap_or_else(|e| panic!("{e}\n{text}"));
+    for (index, mesh) in parsed.meshes.iter().enumerate() {
+        let bytes = std::fs::read(dir.path().join(&mesh.file)).unwrap();
+        parsed.wall_mesh(index, &bytes).unwrap();
+    }
+    text
+}
+
+#[test]
+fn default_case_snapshot() {
+    insta::assert_snapshot!("default_case", check(&case_with(&[])));
+}
+
+#[test]
+fn vibrated_valve_case_snapshot() {
+    let case = case_with(&[
+        ("valve_diameter", 0.016),
+        ("amplitude", 0.0005),
+        ("n_particles", 500.0),
+    ]);
+    insta::assert_snapshot!("vibrated_valve_case", check(&case));
+}
+
+#[test]
+fn the_case_is_the_liggghts_deck_s_case() {
+    // Same particles, time step and planes in both solvers' input.
+    let case = case_with(&[("amplitude", 0.0005)]);
+    let native = check(&case);
+    let dir = tempfile::tempdir().unwrap();
+    let liggghts = crate::liggghts::Liggghts;
+    liggghts
+        .render(&case, "t", liggghts.default_template(), dir.path())
+        .unwrap();
+    let deck = std::fs::read_to_string(dir.path().join(crate::liggghts::DECK_FILE)).unwrap();
+    let context = hopper::context(&case).into_json();
+    for name in ["sensor_z", "fill_bottom", "fill_radius", "fill_top"] {
+        let value = context[name].to_string();
+        assert!(
+            native.contains(&value),
+            "{name} = {value} in the native case"
+        );
+        assert!(
+            deck.contains(&value),
+            "{name} = {value} in the LIGGGHTS deck"
+        );
+    }
+}
+
+const LOG: &str = "orch-dem: case hopper.toml, 3 particles\n\
+step time_s particles kinetic_energy_J discharged_mass_kg\n\
+0 0 3 0 0\n\
+1000 0.02 3 1.5e-4 0\n\
+2000 0.04 1 2.5e-4 1.2e-4\n\
+Loop time of 0.5 s on 1 threads for 2000 steps with 5000 particle-steps (1.0e4 particle-steps/s)\n";
+
+#[test]
+fn log_gives_loop_time_work_and_series() {
+    let log = read_log(Cursor::new(LOG), Path::new("log.native")).unwrap();
+    assert_eq!(log.loop_time_s, 0.5);
+    assert_eq!(log.steps, 2000);
+    assert_eq!(log.particle_steps, 5000.0);
+    assert_eq!(log.kinetic_energy[2], (0.04, 2.5e-4));
+    assert_eq!(log.discharged_mass[2], (0.04, 1.2e-4));
+}
+
+#[test]
+fn truncated_or_failed_logs_are_errors_with_the_line() {
+    let truncated = &LOG[..LOG.find("Loop").unwrap()];
+    let error = read_log(Cursor::new(truncated), Path::new("log.native")).unwrap_err();
+    assert!(error.to_string().contains("did not finish"), "{error}");
+    let failed = LOG.replace(
+        "2000 0.04 1",
+        "ERROR: the run went unstable at step 1234\n2000 0.04 1",
+    );
+    let error = read_log(Cursor::new(failed), Path::new("log.native")).unwrap_err();
+    assert!(
+        error
+            .to_string()
+            .contains("log.native:5: the run failed: the run went unstable at step 1234"),
+        "{error}"
+    );
+    let garbled = LOG.replace("1000 0.02 3", "1000 0.02 x");
+    let error = read_log(Cursor::new(garbled), Path::new("log.native")).unwrap_err();
+    assert!(error.to_string().contains("log.native:4"), "{error}");
+}
+
+#[test]
+fn crossings_are_read_in_time_order() {
+    let csv = format!(
+        "{CROSSINGS_HEADER}\n0.5,7,1,0.002,8e-5,0.001,0,-0.005,0,0,-1\n0.25,3,2,0.001,1e-5,0,0.002,-0.005,0,0,-0.5\n"
+    );
+    let crossings = read_crossings(Cursor::new(csv), Path::new("c.csv")).unwrap();
+    assert_eq!(crossings.len(), 2);
+    assert_eq!(crossings[0].id, 3);
+    assert_eq!(crossings[1].particle_type, 1);
+    assert_eq!(crossings[1].velocity_m_per_s, [0.0, 0.0, -1.0]);
+}
+
+#[test]
+fn malformed_crossings_name_the_line() {
+    let csv = format!("{CROSSINGS_HEADER}\n0.5,7,1,0.002,8e-5,0.001,0,-0.005,0,0\n");
+    let error = read_crossings(Cursor::new(csv), Path::new("c.csv")).unwrap_err();
+    assert!(
+        error
+            .to_string()
+            .starts_with("c.csv:2: expected 11 finite numbers"),
+        "{error}"
+    );
+    let error = read_crossings(Cursor::new("time,id\n"), Path::new("c.csv")).unwrap_err();
+    assert!(
+        error.to_string().contains("c.csv:1: expected the header"),
+        "{error}"
+    );
+    let empty = format!("{CROSSINGS_HEADER}\n");
+    let error = read_crossings(Cursor::new(empty), Path::new("c.csv")).unwrap_err();
+    assert!(error.to_string().contains("did not discharge"), "{error}");
+}

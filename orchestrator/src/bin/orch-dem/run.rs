@@ -1,0 +1,224 @@
+//! `orch-dem run`: reads a case file and its meshes, runs the kernel, writes the log,
+//! the sensor's crossings and any dumps. All the kernel's I/O happens here.
+
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use anyhow::Context;
+use orch_dem::case::Case;
+use orch_dem::output::{write_crossings, write_dump_custom, write_vtk_legacy, CROSSINGS_HEADER};
+use orch_dem::simulation::StageTimers;
+use orch_dem::Simulation;
+
+/// Thermo table header; the native adapter reads it.
+const THERMO_HEADER: &str = "step time_s particles kinetic_energy_J discharged_mass_kg";
+
+/// A case file that cannot be run as written (exit status 2).
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct BadCase(pub String);
+
+/// What a finished run measured.
+#[derive(Debug, Clone)]
+pub struct RunSummary {
+    /// Wall time of the time loop.
+    pub loop_time: Duration,
+    /// Steps taken.
+    pub steps: u64,
+    /// Σ particles × steps.
+    pub particle_steps: u64,
+    /// Time per stage.
+    pub timers: StageTimers,
+    /// Particles left at the end.
+    pub remaining: usize,
+    /// Mass that left through the sink, kg.
+    pub discharged_mass_kg: f64,
+}
+
+impl RunSummary {
+    /// Particle-steps per second of wall time.
+    pub fn throughput(&self) -> f64 {
+        self.particle_steps as f64 / self.loop_time.as_secs_f64()
+    }
+}
+
+/// Reads `case_path` and the meshes it names (relative to its folder) into a ready
+/// simulation; bad input is a [`BadCase`] naming the file.
+pub fn load(case_path: &Path) -> anyhow::Result<(Case, Simulation)> {
+    let text = std::fs::read_to_string(case_path)
+        .with_context(|| format!("cannot read the case file {}", case_path.display()))?;
+    let bad = |message: String| BadCase(format!("{}: {message}", case_path.display()));
+    let case = Case::parse(&text).map_err(|e| bad(e.to_string()))?;
+    let dir = case_path.parent().unwrap_or(Path::new("."));
+    let mut walls = Vec::new();
+    for (index, mesh) in case.meshes.iter().enumerate() {
+        let path = dir.join(&mesh.file);
+        let bytes = std::fs::read(&path).map_err(|e| {
+            bad(format!(
+                "mesh `{}`: cannot read {}: {e}",
+                mesh.name,
+                path.display()
+            ))
+        })?;
+        walls.push(
+            case.wall_mesh(index, &bytes)
+                .map_err(|e| bad(e.to_string()))?,
+        );
+    }
+    let simulation = case.build(walls).map_err(|e| bad(e.to_string()))?;
+    Ok((case, simulation))
+}
+
+/// Runs the case at `case_path` on `threads` threads, writing the log to `log_path`
+/// and outputs under `post/` beside the case file.
+pub fn run(case_path: &Path, log_path: &Path, threads: usize) -> anyhow::Result<RunSummary> {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .context("cannot start the worker threads")?;
+    let mut log = BufWriter::new(
+        File::create(log_path)
+            .with_context(|| format!("cannot write the log {}", log_path.display()))?,
+    );
+    let loaded = pool.install(|| load(case_path));
+    let (case, mut simulation) = match loaded {
+        Ok(loaded) => loaded,
+        Err(error) => {
+            writeln!(log, "ERROR: {error:#}")?;
+            return Err(error);
+        }
+    };
+    let post = case_path.parent().unwrap_or(Path::new(".")).join("post");
+    std::fs::create_dir_all(&post).with_context(|| format!("cannot create {}", post.display()))?;
+    let crossings_path = post.join("crossings.csv");
+    let mut crossings = BufWriter::new(
+        File::create(&crossings_path)
+            .with_context(|| format!("cannot write {}", crossings_path.display()))?,
+    );
+    writeln!(crossings, "{CROSSINGS_HEADER}")?;
+
+    let dt = simulation.config().timestep_s;
+    let steps = (case.run.end_time / dt).round() as u64;
+    writeln!(
+        log,
+        "orch-dem {}: case {}, {} particles of {} types, {} meshes, dt {dt:e} s, {steps} steps, {threads} threads",
+        env!("CARGO_PKG_VERSION"),
+        case_path.display(),
+        simulation.particles.len(),
+        simulation.types().len(),
+        simulation.meshes().len(),
+    )?;
+    writeln!(log, "{THERMO_HEADER}")?;
+    let thermo = |log: &mut BufWriter<File>, s: &Simulation| -> std::io::Result<()> {
+        writeln!(
+            log,
+            "{} {:.6} {} {:.6e} {:.6e}",
+            s.step_count(),
+            s.time_s(),
+            s.remaining(),
+            s.particles.kinetic_energy_j(),
+            s.discharged_mass_kg()
+        )?;
+        log.flush()
+    };
+    thermo(&mut log, &simulation)?;
+
+    let started = Instant::now();
+    let outcome = pool.install(|| -> anyhow::Result<()> {
+        for _ in 0..steps {
+            if let Err(unstable) = simulation.step() {
+                writeln!(log, "ERROR: {unstable}")?;
+                log.flush()?;
+                anyhow::bail!(unstable);
+            }
+            write_crossings(&mut crossings, &simulation.take_crossings())?;
+            let step = simulation.step_count();
+            if step.is_multiple_of(case.run.thermo_every.max(1)) {
+                thermo(&mut log, &simulation)?;
+                crossings.flush()?;
+            }
+            write_snapshots(&case, &simulation, &post)?;
+            let stop = case.run.stop_when_at_most.is_some_and(|at_most| {
+                simulation.time_s() >= case.run.stop_check_after
+                    && simulation.remaining() <= at_most
+            });
+            if stop {
+                break;
+            }
+        }
+        Ok(())
+    });
+    let loop_time = started.elapsed();
+    crossings.flush()?;
+    outcome?;
+    thermo(&mut log, &simulation)?;
+    let summary = RunSummary {
+        loop_time,
+        steps: simulation.step_count(),
+        particle_steps: simulation.particle_steps(),
+        timers: simulation.timers(),
+        remaining: simulation.remaining(),
+        discharged_mass_kg: simulation.discharged_mass_kg(),
+    };
+    writeln!(
+        log,
+        "Loop time of {:.6} s on {threads} threads for {} steps with {} particle-steps ({:.4e} particle-steps/s)",
+        loop_time.as_secs_f64(),
+        summary.steps,
+        summary.particle_steps,
+        summary.throughput()
+    )?;
+    writeln!(log, "{}", profile(&summary.timers, loop_time))?;
+    writeln!(
+        log,
+        "ORCH-DEM DONE at step {} (t = {:.6} s) with {} particles left",
+        summary.steps,
+        simulation.time_s(),
+        summary.remaining
+    )?;
+    log.flush()?;
+    Ok(summary)
+}
+
+/// Where the loop's time went, as one line.
+pub fn profile(timers: &StageTimers, total: Duration) -> String {
+    let share = |d: Duration| 100.0 * d.as_secs_f64() / total.as_secs_f64().max(1e-12);
+    format!(
+        "Stage times: pair forces {:.1} %, walls and gather {:.1} %, neighbour rebuilds {:.1} % ({} rebuilds), integration {:.1} %",
+        share(timers.pairs),
+        share(timers.gather_and_walls),
+        share(timers.neighbours),
+        timers.rebuilds,
+        share(timers.integrate)
+    )
+}
+
+fn write_snapshots(case: &Case, simulation: &Simulation, post: &Path) -> anyhow::Result<()> {
+    let step = simulation.step_count();
+    let due = |every: u64| every > 0 && step.is_multiple_of(every);
+    let file = |name: String| -> anyhow::Result<BufWriter<File>> {
+        let path: PathBuf = post.join(name);
+        Ok(BufWriter::new(File::create(&path).with_context(|| {
+            format!("cannot write {}", path.display())
+        })?))
+    };
+    if due(case.output.dump_every) {
+        let mut out = file(format!("dump{step}.liggghts"))?;
+        write_dump_custom(
+            &mut out,
+            step,
+            &simulation.particles,
+            simulation.config().domain_min_m,
+            simulation.config().domain_max_m,
+        )?;
+        out.flush()?;
+    }
+    if due(case.output.vtk_every) {
+        let mut out = file(format!("particles_{step}.vtk"))?;
+        write_vtk_legacy(&mut out, simulation.time_s(), &simulation.particles)?;
+        out.flush()?;
+    }
+    Ok(())
+}

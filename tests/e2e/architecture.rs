@@ -21,6 +21,18 @@ fn dependencies(crate_dir: &str) -> Vec<String> {
 #[test]
 fn the_pure_crates_know_nothing_of_io_runtimes_databases_or_templates() {
     for (crate_dir, allowed) in [
+        (
+            "dem",
+            &[
+                "nalgebra",
+                "rand",
+                "rand_chacha",
+                "rayon",
+                "serde",
+                "thiserror",
+                "toml",
+            ][..],
+        ),
         ("granular", &["thiserror"][..]),
         (
             "metamodel",

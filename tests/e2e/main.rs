@@ -8,6 +8,7 @@
 mod architecture;
 mod crash_resume;
 mod faults;
+mod native;
 mod real_liggghts;
 mod rounds;
 mod study_files;

@@ -59,6 +59,7 @@ pub fn orch_bin() -> PathBuf {
         "orchestrator/src",
         "orchestrator/migrations",
         "adapters/src",
+        "dem/src",
         "granular/src",
         "metamodel/src",
         "templates",

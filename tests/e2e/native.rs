@@ -132,3 +132,37 @@ fn native_and_liggghts_discharge_the_identical_hopper_at_the_same_rate() {
         );
     }
 }
+
+/// A time step far beyond the Rayleigh time makes the kernel stop with an error naming
+/// the step and the particle; the job fails with that reason and the study goes on.
+#[test]
+fn an_unstable_native_run_fails_its_job_with_the_step_and_particle() {
+    let project = Project::new();
+    let file = project.write(
+        "unstable.yaml",
+        "name: unstable\n\
+         solver: native\n\
+         executor: {max_parallel: 2, time_limit: 1min, retries: 0}\n\
+         factors:\n  - {name: timestep, min: 0.00002, max: 0.0008, unit: s}\n\
+         fixed: {n_particles: 200, fill_time: 0.1, discharge_time: 0.1}\n\
+         design: {type: full_factorial, levels: 2}\n\
+         seed: 1\n\
+         responses: [discharge_rate]\n",
+    );
+    let output = project.run(&["submit", file.to_str().unwrap()]);
+    let stderr = text(&output.stderr);
+    assert_ne!(output.status.code(), Some(0), "{stderr}");
+    let status = project.status("unstable");
+    assert_eq!(count(&status, "failed"), 1, "{status:#}");
+    let failed = status["jobs"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|job| job["state"] == "failed")
+        .unwrap();
+    let error = failed["error"].as_str().unwrap();
+    assert!(
+        error.contains("went unstable at step") && error.contains("particle"),
+        "{error}"
+    );
+}

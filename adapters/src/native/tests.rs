@@ -146,3 +146,50 @@ fn malformed_crossings_name_the_line() {
     let error = read_crossings(Cursor::new(empty), Path::new("c.csv")).unwrap_err();
     assert!(error.to_string().contains("did not discharge"), "{error}");
 }
+
+/// The kernel's `dump custom` snapshots read with the LIGGGHTS dump reader: one
+/// parser serves both solvers.
+#[test]
+fn kernel_dumps_read_with_the_liggghts_dump_reader() {
+    use orch_dem::material::{Material, ParticleType};
+    use orch_dem::particles::Particles;
+    use orch_dem::Vec3;
+    let kind = ParticleType {
+        radius_m: 0.001,
+        density_kg_m3: 2500.0,
+        material: Material {
+            youngs_modulus_pa: 5e6,
+            poisson_ratio: 0.3,
+            restitution: 0.6,
+            friction: 0.5,
+            rolling_friction: 0.0,
+        },
+    };
+    let mut particles = Particles::default();
+    particles.push(4, 1, &kind, Vec3::new(0.001, 0.002, -0.004));
+    particles.velocity_m_s[0] = Vec3::new(0.0, 0.0, -1.25);
+    let mut bytes = Vec::new();
+    orch_dem::output::write_dump_custom(
+        &mut bytes,
+        300,
+        &particles,
+        Vec3::repeat(-0.1),
+        Vec3::repeat(0.1),
+    )
+    .unwrap();
+    let mut seen = Vec::new();
+    crate::dump::read_dump(
+        Cursor::new(bytes),
+        Path::new("dump300.liggghts"),
+        |snapshot| {
+            assert_eq!(snapshot.timestep, 300);
+            seen.extend(snapshot.sightings().map_err(|m| m.join(","))?);
+            Ok(())
+        },
+    )
+    .unwrap();
+    assert_eq!(seen.len(), 1);
+    assert_eq!(seen[0].id, 4);
+    assert_eq!(seen[0].particle_type, 2);
+    assert_eq!(seen[0].velocity_m_per_s, [0.0, 0.0, -1.25]);
+}

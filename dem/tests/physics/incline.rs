@@ -67,3 +67,36 @@ fn above_the_limit_the_contact_slides() {
     );
     assert!(relative_slip > 0.1, "slip {relative_slip}");
 }
+
+/// A sphere rolling on a level floor against a constant directional rolling torque
+/// `μr Fn r` decelerates at `5/7 μr g` (the torque is shared between spin and slide).
+#[test]
+fn rolling_friction_decelerates_a_rolling_sphere_at_five_sevenths_mu_r_g() {
+    let mu_r = 0.1;
+    let mut m = material(0.5, 0.5);
+    m.rolling_friction = mu_r;
+    let kind = sphere(RADIUS, m);
+    let mut cfg = config(1e-6, m);
+    cfg.gravity_m_s2 = Vec3::new(0.0, 0.0, -G);
+    let p = particles(
+        &kind,
+        &[Vec3::new(-0.01, 0.0, RADIUS - 1.5e-6)],
+        &[Vec3::new(0.1, 0.0, 0.0)],
+    );
+    let mut sim = Simulation::new(cfg, vec![kind], p, vec![floor(0.05)]).unwrap();
+    sim.particles.angular_velocity[0] = Vec3::new(0.0, 0.1 / RADIUS, 0.0);
+    let mut speeds = Vec::new();
+    for step in 1..=10_000 {
+        sim.step().unwrap();
+        if step % 2500 == 0 {
+            speeds.push((sim.time_s(), sim.particles.velocity_m_s[0].x));
+        }
+    }
+    let (t0, v0) = speeds[1];
+    let (t1, v1) = speeds[3];
+    assert_relative_eq!(
+        (v0 - v1) / (t1 - t0),
+        5.0 / 7.0 * mu_r * G,
+        max_relative = 0.03
+    );
+}

@@ -188,11 +188,12 @@ impl PairList {
             (positions[j] - positions[i]).norm_squared() < reach * reach
         };
         // Each pair once: a cell against itself and its 13 "forward" neighbours.
+        // Folded into one vector per rayon job; the flattened order is the cell order
+        // whatever the number of threads.
         let found: Vec<Vec<(u32, u32)>> = (0..grid.len())
             .into_par_iter()
-            .map(|cell| {
+            .fold(Vec::new, |mut pairs, cell| {
                 let members = bins.members(cell);
-                let mut pairs = Vec::new();
                 if members.is_empty() {
                     return pairs;
                 }

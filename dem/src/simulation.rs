@@ -138,6 +138,9 @@ struct PairLoad {
 /// Pair rows are processed in blocks of this many particles.
 const BLOCK: usize = 64;
 
+/// Integration runs over chunks of this many particles.
+const CHUNK: usize = 512;
+
 /// A DEM simulation: particles, walls, and the scratch state of the stepper.
 #[derive(Debug)]
 pub struct Simulation {
@@ -373,24 +376,35 @@ impl Simulation {
     /// the last rebuild, m. Then records sensor crossings and sink arrivals.
     fn kick_and_drift(&mut self, dt: Real) -> Real {
         let half = 0.5 * dt;
-        let p = &mut self.particles;
-        let moved_squared = (
-            p.position_m.par_iter_mut(),
-            p.velocity_m_s.par_iter_mut(),
-            p.angular_velocity.par_iter_mut(),
-            p.force_n.par_iter(),
-            p.torque_n_m.par_iter(),
-            p.mass_kg.par_iter(),
-            p.radius_m.par_iter(),
-            self.reference_positions.par_iter(),
-        )
-            .into_par_iter()
-            .with_min_len(256)
-            .map(|(x, v, w, f, tau, &m, &r, x0)| {
-                *v += half / m * f;
-                *w += half / (0.4 * m * r * r) * tau;
-                *x += dt * *v;
-                (*x - x0).norm_squared()
+        let Particles {
+            position_m,
+            velocity_m_s,
+            angular_velocity,
+            force_n,
+            torque_n_m,
+            mass_kg,
+            radius_m,
+            ..
+        } = &mut self.particles;
+        let (force_n, torque_n_m, mass_kg, radius_m) =
+            (&*force_n, &*torque_n_m, &*mass_kg, &*radius_m);
+        let reference = &self.reference_positions;
+        let moved_squared = position_m
+            .par_chunks_mut(CHUNK)
+            .zip(velocity_m_s.par_chunks_mut(CHUNK))
+            .zip(angular_velocity.par_chunks_mut(CHUNK))
+            .enumerate()
+            .map(|(c, ((xs, vs), ws))| {
+                let mut moved: Real = 0.0;
+                for (k, ((x, v), w)) in xs.iter_mut().zip(vs).zip(ws).enumerate() {
+                    let i = c * CHUNK + k;
+                    let (m, r) = (mass_kg[i], radius_m[i]);
+                    *v += half / m * force_n[i];
+                    *w += half / (0.4 * m * r * r) * torque_n_m[i];
+                    *x += dt * *v;
+                    moved = moved.max((*x - reference[i]).norm_squared());
+                }
+                moved
             })
             .reduce(|| 0.0, Real::max);
         // Sensor and sink: a cheap sequential scan; z before the drift is z - dt vz.
@@ -729,23 +743,35 @@ impl Simulation {
     fn kick(&mut self, dt: Real) -> Result<(), Unstable> {
         let half = 0.5 * dt;
         let bound_squared = self.config.max_speed_m_s.powi(2);
-        let p = &mut self.particles;
-        let too_fast = (
-            p.velocity_m_s.par_iter_mut(),
-            p.angular_velocity.par_iter_mut(),
-            p.force_n.par_iter(),
-            p.torque_n_m.par_iter(),
-            p.mass_kg.par_iter(),
-            p.radius_m.par_iter(),
-        )
-            .into_par_iter()
-            .with_min_len(256)
+        let Particles {
+            velocity_m_s,
+            angular_velocity,
+            force_n,
+            torque_n_m,
+            mass_kg,
+            radius_m,
+            ..
+        } = &mut self.particles;
+        let (force_n, torque_n_m, mass_kg, radius_m) =
+            (&*force_n, &*torque_n_m, &*mass_kg, &*radius_m);
+        let too_fast = velocity_m_s
+            .par_chunks_mut(CHUNK)
+            .zip(angular_velocity.par_chunks_mut(CHUNK))
             .enumerate()
-            .filter_map(|(i, (v, w, f, tau, &m, &r))| {
-                *v += half / m * f;
-                *w += half / (0.4 * m * r * r) * tau;
-                let speed_squared = v.norm_squared();
-                (speed_squared.is_nan() || speed_squared > bound_squared).then_some(i)
+            .filter_map(|(c, (vs, ws))| {
+                let mut first = None;
+                for (k, (v, w)) in vs.iter_mut().zip(ws).enumerate() {
+                    let i = c * CHUNK + k;
+                    let (m, r) = (mass_kg[i], radius_m[i]);
+                    *v += half / m * force_n[i];
+                    *w += half / (0.4 * m * r * r) * torque_n_m[i];
+                    let speed_squared = v.norm_squared();
+                    if first.is_none() && (speed_squared.is_nan() || speed_squared > bound_squared)
+                    {
+                        first = Some(i);
+                    }
+                }
+                first
             })
             .min();
         match too_fast {

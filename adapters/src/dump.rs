@@ -108,7 +108,7 @@ pub fn read_dump<R: BufRead>(
     mut on_snapshot: impl FnMut(&Snapshot) -> Result<(), String>,
 ) -> Result<DumpSummary, ParseError> {
     let mut lines = NumberedLines {
-        inner: reader.lines(),
+        inner: reader.lines().peekable(),
         path,
         number: 0,
     };
@@ -155,8 +155,14 @@ pub fn read_dump<R: BufRead>(
             }
             let found = snapshot.values.len() - before;
             if found != snapshot.columns.len() {
+                // A row cut short at the very end of the file is a truncated dump.
+                let ending = if found < snapshot.columns.len() && lines.at_end() {
+                    " and the file ends there (truncated dump?)"
+                } else {
+                    ""
+                };
                 return Err(lines.malformed(format!(
-                    "{what} has {found} values, the header names {} columns",
+                    "{what} has {found} values, the header names {} columns{ending}",
                     snapshot.columns.len()
                 )));
             }
@@ -168,8 +174,8 @@ pub fn read_dump<R: BufRead>(
     Ok(summary)
 }
 
-struct NumberedLines<'p, L> {
-    inner: L,
+struct NumberedLines<'p, L: Iterator> {
+    inner: std::iter::Peekable<L>,
     path: &'p Path,
     number: usize,
 }
@@ -187,6 +193,11 @@ impl<L: Iterator<Item = std::io::Result<String>>> NumberedLines<'_, L> {
                 source,
             }),
         }
+    }
+
+    /// Whether no line follows.
+    fn at_end(&mut self) -> bool {
+        self.inner.peek().is_none()
     }
 
     fn required(&mut self, what: &str) -> Result<String, ParseError> {
@@ -309,6 +320,16 @@ ITEM: ATOMS id type radius mass x y z vx vy vz
         assert_eq!(
             error,
             "post/sensor.liggghts:11: file ends where atom 2 of 2 of the snapshot at time step 100 was expected (truncated dump?)"
+        );
+    }
+
+    #[test]
+    fn a_row_cut_at_the_end_of_the_file_is_a_truncated_dump() {
+        let end = TWO_SNAPSHOTS.find("12 1 0.002").unwrap() + "12 1 0.002".len();
+        let error = read(&TWO_SNAPSHOTS[..end]).unwrap_err().to_string();
+        assert_eq!(
+            error,
+            "post/sensor.liggghts:11: atom 2 of 2 of the snapshot at time step 100 has 3 values, the header names 10 columns and the file ends there (truncated dump?)"
         );
     }
 

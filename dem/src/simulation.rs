@@ -345,7 +345,8 @@ impl Simulation {
         std::mem::take(&mut self.crossings)
     }
 
-    /// Each wall's wall contacts of particle index `i` (for tests and dumps).
+    /// Number of wall contacts particle index `i` had in the last step (tests use it
+    /// to check that a shared edge or vertex is counted once).
     pub fn wall_contact_count(&self, i: usize) -> usize {
         self.wall_contacts[i].as_slice().len()
     }

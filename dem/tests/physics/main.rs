@@ -7,6 +7,7 @@ mod determinism;
 mod energy;
 mod impacts;
 mod incline;
+mod walls;
 
 use orch_dem::material::{Material, ParticleType};
 use orch_dem::mesh::{Motion, WallMesh, WeldedMesh};

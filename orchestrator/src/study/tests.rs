@@ -86,7 +86,7 @@ fn unknown_solver_is_refused() {
     let text = VALID.replace("solver: liggghts", "solver: edem");
     assert_eq!(
         error(&text),
-        "jobs/study.yaml:2:9: solver: unknown solver `edem`; expected one of: liggghts"
+        "jobs/study.yaml:2:9: solver: unknown solver `edem`; expected one of: liggghts, native"
     );
 }
 

@@ -9,7 +9,7 @@
 use std::path::Path;
 
 use orch_granular::HopperGeometry;
-use tera::Context;
+use tera::{Context, Tera};
 
 use crate::primes::prime_seed;
 use crate::{in_run_dir, Case, ParameterSpec, RenderError};
@@ -320,6 +320,47 @@ pub fn check(case: &Case) -> Result<(), RenderError> {
     Ok(())
 }
 
+/// Renders a hopper case into `run_dir`: checks it, writes the solver's input file
+/// `input_file` from the Tera `template` (named `template_name` in messages) with
+/// [`context`], and the STL walls ([`write_meshes`]).
+pub fn render(
+    case: &Case,
+    template_name: &str,
+    template: &str,
+    run_dir: &Path,
+    input_file: &str,
+) -> Result<(), RenderError> {
+    check(case)?;
+    let text = render_template(template_name, template, &context(case))?;
+    write_meshes(case, run_dir)?;
+    write(run_dir, input_file, &text)
+}
+
+/// Renders a Tera template given as text, naming it in errors with every cause.
+fn render_template(
+    template_name: &str,
+    template: &str,
+    context: &Context,
+) -> Result<String, RenderError> {
+    let describe = |error: tera::Error| {
+        let mut message = error.to_string();
+        let mut source = std::error::Error::source(&error);
+        while let Some(cause) = source {
+            message.push_str(": ");
+            message.push_str(&cause.to_string());
+            source = cause.source();
+        }
+        RenderError::Template {
+            template: template_name.to_string(),
+            message,
+        }
+    };
+    let mut tera = Tera::default();
+    tera.add_raw_template(template_name, template)
+        .map_err(describe)?;
+    tera.render(template_name, context).map_err(describe)
+}
+
 /// Writes a file into the run directory.
 pub(crate) fn write(run_dir: &Path, file: &str, text: &str) -> Result<(), RenderError> {
     let path = in_run_dir(run_dir, file);
@@ -350,4 +391,17 @@ pub fn write_meshes(case: &Case, run_dir: &Path) -> Result<(), RenderError> {
     let sink = geometry.sensor_mesh(geometry.top_radius_m() + 0.005, sink_z_m(case));
     write(run_dir, "sink.stl", &sink.to_ascii_stl("sink"))?;
     Ok(())
+}
+
+/// A case of the hopper template with its defaults, `overrides` applied, seed 1.
+#[cfg(test)]
+pub(crate) fn case_with(overrides: &[(&str, f64)]) -> Case {
+    let mut parameters = crate::ResolvedParameters::defaults(PARAMETERS);
+    for (name, value) in overrides {
+        parameters.set(name, *value);
+    }
+    Case {
+        parameters,
+        seed: 1,
+    }
 }

@@ -131,6 +131,18 @@ pub fn adapter_for(name: &str) -> Option<&'static dyn SolverAdapter> {
     }
 }
 
+/// Opens a file of a run directory for reading; the error names the file.
+pub(crate) fn open_in_run_dir(
+    run_dir: &Path,
+    file: &str,
+) -> Result<(std::io::BufReader<std::fs::File>, PathBuf), ParseError> {
+    let path = in_run_dir(run_dir, file);
+    match std::fs::File::open(&path) {
+        Ok(f) => Ok((std::io::BufReader::new(f), path)),
+        Err(source) => Err(ParseError::Read { path, source }),
+    }
+}
+
 /// The path of a file in a run directory, for messages.
 pub(crate) fn in_run_dir(run_dir: &Path, file: &str) -> PathBuf {
     run_dir.join(file)

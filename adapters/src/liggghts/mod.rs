@@ -11,12 +11,9 @@
 
 mod log;
 
-use std::fs::File;
-use std::io::BufReader;
 use std::path::Path;
 
 use orch_granular::CrossingDetector;
-use tera::{Context, Tera};
 
 pub use log::{read_log, LogSummary};
 
@@ -26,7 +23,7 @@ pub use crate::hopper::PARAMETERS;
 use crate::dump::read_dump;
 use crate::hopper;
 use crate::{
-    in_run_dir, Case, CommandSpec, Observations, ParameterSpec, ParseError, RenderError,
+    open_in_run_dir, Case, CommandSpec, Observations, ParameterSpec, ParseError, RenderError,
     SolverAdapter,
 };
 
@@ -40,31 +37,6 @@ pub const DECK_FILE: &str = "hopper.in";
 pub const LOG_FILE: &str = "log.liggghts";
 /// The sensor dump, relative to the run directory.
 pub const SENSOR_DUMP: &str = "post/sensor.liggghts";
-
-/// Renders a Tera template given as text, naming it in errors with every cause.
-pub(crate) fn render_template(
-    template_name: &str,
-    template: &str,
-    context: &Context,
-) -> Result<String, RenderError> {
-    let describe = |error: tera::Error| {
-        let mut message = error.to_string();
-        let mut source = std::error::Error::source(&error);
-        while let Some(cause) = source {
-            message.push_str(": ");
-            message.push_str(&cause.to_string());
-            source = cause.source();
-        }
-        RenderError::Template {
-            template: template_name.to_string(),
-            message,
-        }
-    };
-    let mut tera = Tera::default();
-    tera.add_raw_template(template_name, template)
-        .map_err(describe)?;
-    tera.render(template_name, context).map_err(describe)
-}
 
 impl SolverAdapter for Liggghts {
     fn name(&self) -> &'static str {
@@ -98,11 +70,7 @@ impl SolverAdapter for Liggghts {
         template: &str,
         run_dir: &Path,
     ) -> Result<(), RenderError> {
-        self.check(case)?;
-        let deck = render_template(template_name, template, &hopper::context(case))?;
-        hopper::write_meshes(case, run_dir)?;
-        hopper::write(run_dir, DECK_FILE, &deck)?;
-        Ok(())
+        hopper::render(case, template_name, template, run_dir, DECK_FILE)
     }
 
     fn command(&self, _case: &Case) -> CommandSpec {
@@ -119,16 +87,7 @@ impl SolverAdapter for Liggghts {
     }
 
     fn parse(&self, case: &Case, run_dir: &Path) -> Result<Observations, ParseError> {
-        let open = |file: &str| {
-            let path = in_run_dir(run_dir, file);
-            File::open(&path)
-                .map(BufReader::new)
-                .map_err(|source| ParseError::Read {
-                    path: path.clone(),
-                    source,
-                })
-                .map(|reader| (reader, path))
-        };
+        let open = |file: &str| open_in_run_dir(run_dir, file);
         let (reader, log_path) = open(LOG_FILE)?;
         let log = read_log(reader, &log_path)?;
 

@@ -1,18 +1,7 @@
 use std::path::Path;
 
 use super::*;
-use crate::ResolvedParameters;
-
-fn case_with(overrides: &[(&str, f64)]) -> Case {
-    let mut parameters = ResolvedParameters::defaults(PARAMETERS);
-    for (name, value) in overrides {
-        parameters.set(name, *value);
-    }
-    Case {
-        parameters,
-        seed: 1,
-    }
-}
+use crate::hopper::case_with;
 
 /// Renders `case` with the default template and returns the deck.
 fn check(case: &Case) -> String {

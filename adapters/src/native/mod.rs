@@ -10,19 +10,17 @@
 
 mod log;
 
-use std::fs::File;
-use std::io::{BufRead, BufReader};
+use std::io::BufRead;
 use std::path::{Path, PathBuf};
 
 use orch_granular::Crossing;
 
-pub use log::{read_log, NativeLog};
+pub use log::{read_log, NativeLog, THERMO_HEADER};
 
 use crate::hopper;
-use crate::liggghts::render_template;
 use crate::{
-    in_run_dir, Case, CommandSpec, Observations, ParameterSpec, ParseError, RenderError, Series,
-    SolverAdapter,
+    open_in_run_dir, Case, CommandSpec, Observations, ParameterSpec, ParseError, RenderError,
+    Series, SolverAdapter,
 };
 
 /// The native kernel's adapter.
@@ -84,10 +82,7 @@ impl SolverAdapter for Native {
         template: &str,
         run_dir: &Path,
     ) -> Result<(), RenderError> {
-        self.check(case)?;
-        let text = render_template(template_name, template, &hopper::context(case))?;
-        hopper::write_meshes(case, run_dir)?;
-        hopper::write(run_dir, CASE_FILE, &text)
+        hopper::render(case, template_name, template, run_dir, CASE_FILE)
     }
 
     fn command(&self, _case: &Case) -> CommandSpec {
@@ -104,16 +99,7 @@ impl SolverAdapter for Native {
     }
 
     fn parse(&self, _case: &Case, run_dir: &Path) -> Result<Observations, ParseError> {
-        let open = |file: &str| {
-            let path = in_run_dir(run_dir, file);
-            File::open(&path)
-                .map(BufReader::new)
-                .map_err(|source| ParseError::Read {
-                    path: path.clone(),
-                    source,
-                })
-                .map(|reader| (reader, path))
-        };
+        let open = |file: &str| open_in_run_dir(run_dir, file);
         let (reader, log_path) = open(LOG_FILE)?;
         let log = read_log(reader, &log_path)?;
         let (reader, crossings_path) = open(CROSSINGS_FILE)?;

@@ -2,18 +2,7 @@ use std::io::Cursor;
 use std::path::Path;
 
 use super::*;
-use crate::ResolvedParameters;
-
-fn case_with(overrides: &[(&str, f64)]) -> Case {
-    let mut parameters = ResolvedParameters::defaults(hopper::PARAMETERS);
-    for (name, value) in overrides {
-        parameters.set(name, *value);
-    }
-    Case {
-        parameters,
-        seed: 1,
-    }
-}
+use crate::hopper::case_with;
 
 /// Renders `case` with the default template, checks that the kernel accepts the case
 /// file and its meshes, and returns the case file's text.
@@ -113,6 +102,11 @@ fn truncated_or_failed_logs_are_errors_with_the_line() {
     let garbled = LOG.replace("1000 0.02 3", "1000 0.02 x");
     let error = read_log(Cursor::new(garbled), Path::new("log.native")).unwrap_err();
     assert!(error.to_string().contains("log.native:4"), "{error}");
+}
+
+#[test]
+fn the_reader_expects_the_header_the_kernel_writes() {
+    assert_eq!(CROSSINGS_HEADER, orch_dem::output::CROSSINGS_HEADER);
 }
 
 #[test]

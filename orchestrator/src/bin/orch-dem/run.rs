@@ -11,9 +11,8 @@ use orch_dem::case::Case;
 use orch_dem::output::{write_crossings, write_dump_custom, write_vtk_legacy, CROSSINGS_HEADER};
 use orch_dem::simulation::StageTimers;
 use orch_dem::Simulation;
-
-/// Thermo table header; the native adapter reads it.
-const THERMO_HEADER: &str = "step time_s particles kinetic_energy_J discharged_mass_kg";
+// The log format the native adapter reads.
+use orch_adapters::native::THERMO_HEADER;
 
 /// A case file that cannot be run as written (exit status 2).
 #[derive(Debug, thiserror::Error)]

@@ -51,7 +51,7 @@ pub fn read_log<R: BufRead>(reader: R, path: &Path) -> Result<NativeLog, ParseEr
         } else if let Some(rest) = trimmed.strip_prefix("Loop time of ") {
             let words: Vec<&str> = rest.split_whitespace().collect();
             // <s> s on <n> threads for <steps> steps with <p> particle-steps
-            let parsed = (words.len() >= 9)
+            let parsed = (words.len() >= 10)
                 .then(|| {
                     Some((
                         words[0].parse::<f64>().ok()?,

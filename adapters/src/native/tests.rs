@@ -99,6 +99,15 @@ fn truncated_or_failed_logs_are_errors_with_the_line() {
             .contains("log.native:5: the run failed: the run went unstable at step 1234"),
         "{error}"
     );
+    // Nine words: the particle-steps figure would be the tenth; reading it must not panic.
+    let short = LOG.replace(" 5000 particle-steps (1.0e4 particle-steps/s)", "");
+    let error = read_log(Cursor::new(short), Path::new("log.native")).unwrap_err();
+    assert!(
+        error
+            .to_string()
+            .contains("log.native:6: cannot read the loop line"),
+        "{error}"
+    );
     let garbled = LOG.replace("1000 0.02 3", "1000 0.02 x");
     let error = read_log(Cursor::new(garbled), Path::new("log.native")).unwrap_err();
     assert!(error.to_string().contains("log.native:4"), "{error}");

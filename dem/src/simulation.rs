@@ -141,6 +141,22 @@ const BLOCK: usize = 64;
 /// Integration runs over chunks of this many particles.
 const CHUNK: usize = 512;
 
+/// Half a velocity-Verlet kick of one sphere: `v += dt/2 F/m`, `ω += dt/2 τ/I` with
+/// `I = 2/5 m r²`.
+#[inline]
+fn half_kick(
+    velocity: &mut Vec3,
+    spin: &mut Vec3,
+    force: Vec3,
+    torque: Vec3,
+    mass_kg: Real,
+    radius_m: Real,
+    half_dt_s: Real,
+) {
+    *velocity += half_dt_s / mass_kg * force;
+    *spin += half_dt_s / (0.4 * mass_kg * radius_m * radius_m) * torque;
+}
+
 /// A DEM simulation: particles, walls, and the scratch state of the stepper.
 #[derive(Debug)]
 pub struct Simulation {
@@ -158,6 +174,10 @@ pub struct Simulation {
     wall_contacts: Vec<WallContacts>,
     reference_positions: Vec<Vec3>,
     reference_offsets: Vec<Vec3>,
+    /// Each wall's displacement (m), velocity (m/s) and presence at `time_s`, set
+    /// once per step by `update_walls`.
+    mesh_offsets: Vec<Vec3>,
+    mesh_velocities: Vec<Vec3>,
     mesh_present: Vec<bool>,
     time_s: Real,
     step: u64,
@@ -264,7 +284,9 @@ impl Simulation {
             wall_contacts: vec![WallContacts::default(); n],
             reference_positions: Vec::new(),
             reference_offsets: vec![Vec3::zeros(); meshes.len()],
-            mesh_present: vec![true; meshes.len()],
+            mesh_offsets: Vec::new(),
+            mesh_velocities: Vec::new(),
+            mesh_present: Vec::new(),
             meshes,
             time_s: 0.0,
             step: 0,
@@ -280,6 +302,7 @@ impl Simulation {
             particles,
             config,
         };
+        simulation.update_walls();
         simulation.rebuild();
         simulation.compute_forces()?;
         Ok(simulation)
@@ -357,6 +380,7 @@ impl Simulation {
         let started = Instant::now();
         let moved = self.kick_and_drift(dt);
         self.time_s += dt;
+        self.update_walls();
         self.step += 1;
         self.particle_steps += self.particles.len() as u64;
         self.timers.integrate += started.elapsed();
@@ -399,9 +423,15 @@ impl Simulation {
                 let mut moved: Real = 0.0;
                 for (k, ((x, v), w)) in xs.iter_mut().zip(vs).zip(ws).enumerate() {
                     let i = c * CHUNK + k;
-                    let (m, r) = (mass_kg[i], radius_m[i]);
-                    *v += half / m * force_n[i];
-                    *w += half / (0.4 * m * r * r) * torque_n_m[i];
+                    half_kick(
+                        v,
+                        w,
+                        force_n[i],
+                        torque_n_m[i],
+                        mass_kg[i],
+                        radius_m[i],
+                        half,
+                    );
                     *x += dt * *v;
                     moved = moved.max((*x - reference[i]).norm_squared());
                 }
@@ -434,22 +464,28 @@ impl Simulation {
                 self.removed_mass_kg += self.particles.mass_kg[i];
             }
         }
-        for (m, mesh) in self.meshes.iter().enumerate() {
-            self.mesh_present[m] = mesh.is_present(time + dt);
-        }
         moved_squared.sqrt()
     }
 
-    fn mesh_offsets(&self) -> Vec<Vec3> {
-        self.meshes
+    /// Where the walls are, how fast they move and which exist at `time_s`.
+    fn update_walls(&mut self) {
+        let t = self.time_s;
+        self.mesh_offsets = self
+            .meshes
             .iter()
-            .map(|m| m.motion.displacement_m(self.time_s))
-            .collect()
+            .map(|m| m.motion.displacement_m(t))
+            .collect();
+        self.mesh_velocities = self
+            .meshes
+            .iter()
+            .map(|m| m.motion.velocity_m_s(t))
+            .collect();
+        self.mesh_present = self.meshes.iter().map(|m| m.is_present(t)).collect();
     }
 
     fn needs_rebuild(&self, moved_m: Real) -> bool {
-        let offsets = self.mesh_offsets();
-        let wall_moved = offsets
+        let wall_moved = self
+            .mesh_offsets
             .iter()
             .zip(&self.reference_offsets)
             .map(|(d, d0)| (d - d0).norm())
@@ -488,18 +524,17 @@ impl Simulation {
         // Loads are read only where `in_contact` says this step wrote them.
         self.pair_loads
             .resize(self.pairs.len(), PairLoad::default());
-        let offsets = self.mesh_offsets();
         self.wall_candidates = WallCandidates::build(
             &self.meshes,
             &self.mesh_indexes,
-            &offsets,
+            &self.mesh_offsets,
             &self.mesh_present,
             &p.position_m,
             &p.radius_m,
             self.config.skin_m,
         );
         self.reference_positions = p.position_m.clone();
-        self.reference_offsets = offsets;
+        self.reference_offsets = self.mesh_offsets.clone();
         self.timers.rebuilds += 1;
     }
 
@@ -671,16 +706,10 @@ impl Simulation {
     /// Per particle: gravity, pair forces, wall contacts. Returns the deepest wall
     /// overlap (ratio, particle index).
     fn gather(&mut self) -> Option<(Real, usize)> {
-        let offsets = self.mesh_offsets();
-        let velocities: Vec<Vec3> = self
-            .meshes
-            .iter()
-            .map(|m| m.motion.velocity_m_s(self.time_s))
-            .collect();
         let walls = WallState {
             meshes: &self.meshes,
-            offsets_m: &offsets,
-            velocities_m_s: &velocities,
+            offsets_m: &self.mesh_offsets,
+            velocities_m_s: &self.mesh_velocities,
             present: &self.mesh_present,
             table: &self.table,
             dt_s: self.config.timestep_s,
@@ -763,9 +792,15 @@ impl Simulation {
                 let mut first = None;
                 for (k, (v, w)) in vs.iter_mut().zip(ws).enumerate() {
                     let i = c * CHUNK + k;
-                    let (m, r) = (mass_kg[i], radius_m[i]);
-                    *v += half / m * force_n[i];
-                    *w += half / (0.4 * m * r * r) * torque_n_m[i];
+                    half_kick(
+                        v,
+                        w,
+                        force_n[i],
+                        torque_n_m[i],
+                        mass_kg[i],
+                        radius_m[i],
+                        half,
+                    );
                     let speed_squared = v.norm_squared();
                     if first.is_none() && (speed_squared.is_nan() || speed_squared > bound_squared)
                     {

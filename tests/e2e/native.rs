@@ -4,15 +4,7 @@
 use std::collections::BTreeMap;
 use std::time::Instant;
 
-use orch_granular::reference::beverloo_rate_kg_per_s;
-
-use crate::support::{count, require_liggghts, root, solver_lock, text, Project};
-
-/// Beverloo with the usual constants for the 4 mm / 2 mm 50/50 mixture (bulk density
-/// 0.6 ρ_p, mass-weighted mean diameter 3 mm), as in the LIGGGHTS test.
-fn beverloo(outlet_diameter_m: f64) -> f64 {
-    beverloo_rate_kg_per_s(0.6 * 2500.0, outlet_diameter_m, 0.003, 0.58, 1.5)
-}
+use crate::support::{beverloo, count, require_liggghts, root, solver_lock, text, Project};
 
 #[test]
 fn the_quickstart_study_runs_on_the_native_kernel_and_discharges_like_beverloo() {

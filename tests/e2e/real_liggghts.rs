@@ -3,15 +3,7 @@
 use std::collections::BTreeMap;
 use std::time::Instant;
 
-use orch_granular::reference::beverloo_rate_kg_per_s;
-
-use crate::support::{count, require_liggghts, root, solver_lock, text, Project};
-
-/// Beverloo with the usual constants for the study's spheres: bulk density 0.6 ρ_p,
-/// mass-weighted mean diameter of the 4 mm / 2 mm 50/50 mixture (3 mm).
-fn beverloo(outlet_diameter_m: f64) -> f64 {
-    beverloo_rate_kg_per_s(0.6 * 2500.0, outlet_diameter_m, 0.003, 0.58, 1.5)
-}
+use crate::support::{beverloo, count, require_liggghts, root, solver_lock, text, Project};
 
 #[test]
 fn a_nine_run_ccd_on_liggghts_discharges_like_beverloo_and_status_matches_the_store() {

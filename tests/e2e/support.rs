@@ -221,3 +221,15 @@ pub fn count(status: &Value, state: &str) -> usize {
 pub fn default_liggghts_template() -> String {
     std::fs::read_to_string(root().join("templates/liggghts/hopper.in.tera")).unwrap()
 }
+
+/// Beverloo with the usual constants for the study's spheres: bulk density 0.6 ρ_p,
+/// mass-weighted mean diameter of the 4 mm / 2 mm 50/50 mixture (3 mm).
+pub fn beverloo(outlet_diameter_m: f64) -> f64 {
+    orch_granular::reference::beverloo_rate_kg_per_s(
+        0.6 * 2500.0,
+        outlet_diameter_m,
+        0.003,
+        0.58,
+        1.5,
+    )
+}

@@ -7,12 +7,13 @@ use clap::{Parser, Subcommand};
 
 use crate::driver::{self, Ending};
 use crate::executor::process::{self, ProcessHandle};
+use crate::executor::{Executor, SlurmExecutor};
 use crate::exit_codes;
 use crate::project;
 use crate::rounds;
 use crate::status::{self, StudyDetail};
 use crate::store::{JobState, Store, StudyRow, StudyState};
-use crate::study::{Study, StudyError, Template};
+use crate::study::{ExecutorKind, Study, StudyError, Template};
 
 /// Runs design-of-experiments studies of DEM solvers and collects their responses.
 #[derive(Debug, Parser)]
@@ -168,6 +169,16 @@ async fn submit(
             study.adapter.name(),
             study.adapter.install_hint()
         )));
+    }
+    if study.executor.kind == ExecutorKind::Slurm {
+        if let Some(missing) = ["sbatch", "squeue", "scancel"]
+            .into_iter()
+            .find(|p| !program_exists(p))
+        {
+            return Err(input_error(format!(
+                "the study runs on Slurm but `{missing}` is not on PATH: run orch where Slurm's commands are (a login node), install them (apt-get install slurm-wlm), or start a local test cluster with scripts/slurm up; nothing was written"
+            )));
+        }
     }
     let project = project::for_study_file(study_file, project_dir).with_context(|| {
         format!(
@@ -449,22 +460,43 @@ async fn show_fits(
 async fn cancel(project_dir: Option<&Path>, name: &str) -> anyhow::Result<i32> {
     let (store, row) = find(project_dir, name).await?;
     store.set_study_state(row.id, StudyState::Cancelled).await?;
-    let mut killed = 0;
-    let mut cancelled = 0;
-    for job in store.jobs(row.id).await? {
-        if job.state().is_final() {
-            continue;
+    let jobs: Vec<_> = store
+        .jobs(row.id)
+        .await?
+        .into_iter()
+        .filter(|job| !job.state().is_final())
+        .collect();
+    let handles: Vec<&str> = jobs
+        .iter()
+        .filter_map(|job| job.executor_handle.as_deref())
+        .collect();
+    let slurm = Study::from_text(
+        Path::new(&row.file_path),
+        &row.file_text,
+        Some(stored_template(&row)),
+    )
+    .ok()
+    .and_then(|study| study.executor.slurm);
+    let stopped = match slurm {
+        Some(settings) => {
+            // One scancel for all; Slurm ends them, the store records them cancelled.
+            let mut executor = SlurmExecutor::new(settings);
+            executor.terminate(&handles).await;
+            format!("{} Slurm jobs cancelled with scancel", handles.len())
         }
-        if let Some(handle) = job
-            .executor_handle
-            .as_deref()
-            .and_then(ProcessHandle::parse)
-        {
-            if handle.is_alive() {
-                process::signal_group(handle.pid, nix::sys::signal::Signal::SIGKILL);
-                killed += 1;
+        None => {
+            let mut killed = 0;
+            for handle in handles.iter().filter_map(|h| ProcessHandle::parse(h)) {
+                if handle.is_alive() {
+                    process::signal_group(handle.pid, nix::sys::signal::Signal::SIGKILL);
+                    killed += 1;
+                }
             }
+            format!("{killed} running solvers killed")
         }
+    };
+    let mut cancelled = 0;
+    for job in &jobs {
         // The driver, if one runs, may get there first; that is fine.
         if store
             .mark_cancelled(job.id, "cancelled by orch cancel")
@@ -474,7 +506,7 @@ async fn cancel(project_dir: Option<&Path>, name: &str) -> anyhow::Result<i32> {
             cancelled += 1;
         }
     }
-    eprintln!("orch: study `{name}` cancelled: {cancelled} jobs cancelled, {killed} running solvers killed; `orch resume {name}` runs them again");
+    eprintln!("orch: study `{name}` cancelled: {cancelled} jobs cancelled, {stopped}; `orch resume {name}` runs them again");
     Ok(exit_codes::SUCCESS)
 }
 

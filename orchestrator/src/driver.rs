@@ -1,19 +1,23 @@
-//! The driver: runs a study's jobs to completion through the local executor.
+//! The driver: runs a study's jobs to completion through an executor (local or Slurm).
 //!
 //! One loop, ticking every [`TICK`], is the only writer of job states while it runs:
 //!
 //! 1. stop if the study was cancelled (by `orch cancel` from another process) or the
-//!    user pressed Ctrl-C / sent SIGTERM (running jobs go back to pending, attempt
-//!    refunded, and the study is `interrupted`);
-//! 2. poll every running job: a finished one is parsed and its responses stored, a
-//!    failed one is retried within its budget or marked failed with the reason, a job
-//!    past its time limit is terminated, and a job whose process vanished without an
+//!    user pressed Ctrl-C / sent SIGTERM (local jobs are stopped and go back to pending,
+//!    attempt refunded; Slurm jobs keep running on the cluster; the study is
+//!    `interrupted`);
+//! 2. every executor poll interval, ask about every submitted or running job at once:
+//!    a finished one is parsed and its responses stored, a failed one is retried
+//!    within its budget or marked failed with the reason, a local job past its time
+//!    limit is terminated (Slurm enforces its own), and a job that vanished without an
 //!    exit status goes back to pending;
-//! 3. render and launch pending jobs while fewer than `max_parallel` run.
+//! 3. render and launch pending jobs while fewer than `max_parallel` (local) or
+//!    `max_submitted` (Slurm) are unfinished.
 //!
-//! The store is the truth: after `kill -9` of `orch`, a new driver finds running jobs
-//! by their handles, follows them to the end and collects their results; jobs caught
-//! between render and launch are rendered again.
+//! The store is the truth: after `kill -9` of `orch`, a new driver finds submitted and
+//! running jobs by their handles, follows them to the end and collects their results;
+//! jobs caught between render and launch are re-attached (Slurm, found by name) or
+//! rendered again.
 
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
@@ -24,17 +28,19 @@ use orch_granular::responses::{cumulative_mass_series, mass_flow_series};
 use orch_granular::{DischargeResponses, ResponseOptions};
 use tokio::signal::unix::{signal, SignalKind};
 
-use crate::executor::process::ProcessHandle;
 use crate::executor::{
-    JobStatus, LaunchSpec, LocalExecutor, ATTEMPTS_LOG, STDERR_FILE, STDOUT_FILE,
+    Executor, JobStatus, LaunchSpec, LocalExecutor, Recovered, SlurmExecutor, StopCause, Watched,
+    ATTEMPTS_LOG, STDERR_FILE, STDOUT_FILE,
 };
 use crate::store::{now_s, JobResults, JobRow, JobState, PointRow, Store, StoreError, StudyState};
-use crate::study::Study;
+use crate::study::{ExecutorKind, Study};
 
 /// How often the driver looks at its jobs.
 pub const TICK: Duration = Duration::from_millis(100);
 /// Width of the bins of the stored mass-flow-rate series, s.
 pub const MASS_FLOW_BIN_S: f64 = 0.02;
+/// How often an executor that cannot be asked (slurmctld down) is reported.
+const POLL_ERROR_REPORT: Duration = Duration::from_secs(60);
 
 /// How a run of the driver ended.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -73,13 +79,33 @@ pub enum DriverError {
     Signals(#[source] std::io::Error),
 }
 
-/// Runs `study` (stored as `study_id`) until every job is final, or it is stopped.
+/// Runs `study` (stored as `study_id`) until every job is final, or it is stopped,
+/// with the executor the study names.
 pub async fn drive(store: &Store, study_id: i64, study: &Study) -> Result<Summary, DriverError> {
+    match (study.executor.kind, &study.executor.slurm) {
+        (ExecutorKind::Slurm, Some(settings)) => {
+            drive_with(store, study_id, study, SlurmExecutor::new(settings.clone())).await
+        }
+        _ => drive_with(store, study_id, study, LocalExecutor::new()).await,
+    }
+}
+
+/// True while a job holds a slot of `max_parallel`: handed to the executor, not final.
+fn is_launched(state: JobState) -> bool {
+    matches!(state, JobState::Submitted | JobState::Running)
+}
+
+async fn drive_with<E: Executor>(
+    store: &Store,
+    study_id: i64,
+    study: &Study,
+    executor: E,
+) -> Result<Summary, DriverError> {
     let mut driver = Driver {
         store,
         study,
         study_id,
-        executor: LocalExecutor::new(),
+        executor,
         points: store
             .points(study_id)
             .await?
@@ -88,6 +114,8 @@ pub async fn drive(store: &Store, study_id: i64, study: &Study) -> Result<Summar
             .collect(),
         terminating: HashMap::new(),
         started: Instant::now(),
+        last_poll: None,
+        last_poll_error: None,
     };
     let mut interrupt = signal(SignalKind::interrupt()).map_err(DriverError::Signals)?;
     let mut terminate = signal(SignalKind::terminate()).map_err(DriverError::Signals)?;
@@ -100,22 +128,21 @@ pub async fn drive(store: &Store, study_id: i64, study: &Study) -> Result<Summar
             _ = ticker.tick() => {}
         }
         driver.executor.tidy();
+        let executor = &driver.executor;
         driver
             .terminating
-            .retain(|_, pgid| crate::executor::process::group_exists(*pgid));
+            .retain(|_, handle| !executor.is_gone(handle));
         if store.study_state(study_id).await? == StudyState::Cancelled {
             break driver.stop_for_cancel().await?;
         }
         let jobs = store.jobs(study_id).await?;
-        for job in jobs.iter().filter(|j| j.state() == JobState::Running) {
-            driver.poll(job).await?;
+        if driver.poll_due() {
+            let launched: Vec<&JobRow> = jobs.iter().filter(|j| is_launched(j.state())).collect();
+            driver.poll(&launched).await?;
         }
         let jobs = store.jobs(study_id).await?;
-        let running = jobs
-            .iter()
-            .filter(|j| j.state() == JobState::Running)
-            .count();
-        let free = study.executor.max_parallel.saturating_sub(running);
+        let launched = jobs.iter().filter(|j| is_launched(j.state())).count();
+        let free = study.executor.max_parallel.saturating_sub(launched);
         let launchable: Vec<&JobRow> = jobs
             .iter()
             .filter(|j| j.state() == JobState::Pending && !driver.terminating.contains_key(&j.id))
@@ -130,6 +157,12 @@ pub async fn drive(store: &Store, study_id: i64, study: &Study) -> Result<Summar
     };
     // Jobs killed for their time limit must be gone before orch reports and exits.
     driver.wait_for_terminations().await;
+    if let Some(calls) = driver.executor.calls() {
+        tracing::info!(
+            "{calls} calls in {:.1} s",
+            driver.started.elapsed().as_secs_f64()
+        );
+    }
     let jobs = store.jobs(study_id).await?;
     let count = |state: JobState| jobs.iter().filter(|j| j.state() == state).count();
     Ok(Summary {
@@ -141,41 +174,74 @@ pub async fn drive(store: &Store, study_id: i64, study: &Study) -> Result<Summar
     })
 }
 
-struct Driver<'a> {
+struct Driver<'a, E> {
     store: &'a Store,
     study: &'a Study,
     study_id: i64,
-    executor: LocalExecutor,
+    executor: E,
     points: HashMap<i64, PointRow>,
-    /// Jobs whose terminated process group may still be dying: not relaunched yet.
-    terminating: HashMap<i64, i64>,
+    /// Jobs whose terminated attempt may still be dying (by handle): not relaunched yet,
+    /// so two attempts never share a run directory.
+    terminating: HashMap<i64, String>,
     started: Instant,
+    last_poll: Option<Instant>,
+    last_poll_error: Option<Instant>,
 }
 
-impl Driver<'_> {
-    /// Jobs caught between render and launch by a stopped `orch` are rendered again.
+impl<E: Executor> Driver<'_, E> {
+    /// Jobs caught between render and launch by a stopped `orch`: re-attached when the
+    /// executor still knows them (Slurm), else rendered again.
     async fn reconcile(&mut self) -> Result<(), DriverError> {
         for job in self.store.jobs(self.study_id).await? {
-            if matches!(job.state(), JobState::Rendered | JobState::Submitted) {
-                if let Some(pid) = crate::executor::local::kill_unrecorded(Path::new(&job.run_dir))
-                {
+            let unrecorded = job.state() == JobState::Rendered
+                || (job.state() == JobState::Submitted && job.executor_handle.is_none());
+            if !unrecorded {
+                continue;
+            }
+            match self
+                .executor
+                .recover_unrecorded(&self.spec_name(&job), Path::new(&job.run_dir))
+                .await
+            {
+                Recovered::Attached(handle) if job.state() == JobState::Rendered => {
+                    tracing::warn!(job = %job.name, %handle, "re-attached to a job a stopped orch submitted before recording it");
+                    self.store.mark_submitted(job.id, &handle).await?;
+                    continue;
+                }
+                Recovered::Killed(pid) => {
                     tracing::warn!(job = %job.name, pid, "killed a solver launched by a stopped orch before its handle was recorded");
                 }
-                self.store
-                    .requeue(
-                        job.id,
-                        "orch stopped before launching it; rendered again",
-                        false,
-                    )
-                    .await?;
+                _ => {}
             }
+            self.store
+                .requeue(
+                    job.id,
+                    "orch stopped before launching it; rendered again",
+                    false,
+                )
+                .await?;
         }
         Ok(())
+    }
+
+    /// `study/job`: the job's name for executors.
+    fn spec_name(&self, job: &JobRow) -> String {
+        format!("{}/{}", self.study.name, job.name)
     }
 
     fn case(&self, job: &JobRow) -> orch_adapters::Case {
         let natural = &self.points[&job.point_id].natural;
         self.study.case_at(natural, job.seed as u64)
+    }
+
+    fn poll_due(&mut self) -> bool {
+        let due = self
+            .last_poll
+            .is_none_or(|last| last.elapsed() >= self.executor.poll_interval());
+        if due {
+            self.last_poll = Some(Instant::now());
+        }
+        due
     }
 
     async fn launch(&mut self, job: &JobRow) -> Result<(), DriverError> {
@@ -207,65 +273,136 @@ impl Driver<'_> {
         }
         self.store.mark_rendered(job.id).await?;
         let spec = LaunchSpec {
+            name: self.spec_name(job),
             run_dir: run_dir.clone(),
             command: self.study.adapter.command(&case),
         };
-        match self.executor.launch(&spec) {
-            Ok(handle) => {
+        match self.executor.launch(&spec).await {
+            Ok(launched) if launched.queued => {
+                self.store.mark_submitted(job.id, &launched.handle).await?;
+                tracing::info!(job = %job.name, handle = %launched.handle, "submitted");
+            }
+            Ok(launched) => {
                 self.store
-                    .mark_running(job.id, &handle.to_string(), now_s())
+                    .mark_running(job.id, &launched.handle, now_s())
                     .await?;
-                tracing::info!(job = %job.name, handle = %handle, "launched");
+                tracing::info!(job = %job.name, handle = %launched.handle, "launched");
             }
             Err(e) => {
-                self.store.mark_failed(job.id, None, &e.to_string()).await?;
+                let message = e.to_string();
+                self.report(job, &message);
+                self.store.mark_failed(job.id, None, &message).await?;
             }
         }
         Ok(())
     }
 
-    async fn poll(&mut self, job: &JobRow) -> Result<(), DriverError> {
-        let Some(handle) = handle_of(job) else {
-            self.store
-                .requeue(job.id, "its handle was unreadable; it runs again", false)
-                .await?;
-            return Ok(());
+    /// Asks the executor about every launched job at once and acts on the answers.
+    async fn poll(&mut self, jobs: &[&JobRow]) -> Result<(), DriverError> {
+        let watched: Vec<Watched> = jobs
+            .iter()
+            .map(|job| Watched {
+                handle: job.executor_handle.as_deref().unwrap_or(""),
+                run_dir: Path::new(&job.run_dir),
+            })
+            .collect();
+        let reports = match self.executor.poll(&watched).await {
+            Ok(reports) => reports,
+            Err(e) => {
+                // Nothing is known; nothing changes. Say so now and then.
+                if self
+                    .last_poll_error
+                    .is_none_or(|last| last.elapsed() >= POLL_ERROR_REPORT)
+                {
+                    eprintln!("orch: {e}; jobs are left as they are and asked about again");
+                    self.last_poll_error = Some(Instant::now());
+                }
+                return Ok(());
+            }
         };
+        for (job, report) in jobs.iter().zip(reports) {
+            if let Some(state) = &report.scheduler_state {
+                self.note_scheduler_state(job, state).await?;
+            }
+            self.act_on(job, report.status).await?;
+        }
+        Ok(())
+    }
+
+    async fn act_on(&mut self, job: &JobRow, status: JobStatus) -> Result<(), DriverError> {
         let run_dir = PathBuf::from(&job.run_dir);
-        match self.executor.poll(handle, &run_dir) {
-            JobStatus::Running => {
-                let limit = self.study.executor.time_limit;
-                let elapsed = now_s() - job.started_at.unwrap_or_else(now_s);
-                if let Some(limit) = limit.filter(|l| elapsed > l.as_secs_f64()) {
-                    self.executor.terminate(handle);
-                    self.terminating.insert(job.id, handle.pid);
+        match status {
+            JobStatus::Queued => {}
+            JobStatus::Running if job.state() == JobState::Submitted => {
+                self.store.mark_started(job.id, now_s()).await?;
+            }
+            JobStatus::Running => self.enforce_time_limit(job, &run_dir).await?,
+            JobStatus::Exited(0) => self.collect(job, &run_dir).await?,
+            JobStatus::Exited(code) => {
+                let reason = format!(
+                    "the solver exited with status {code}; {}",
+                    failure_summary(&run_dir, &self.log_file(job))
+                );
+                self.fail_or_retry(job, Some(code), reason).await?;
+            }
+            JobStatus::Stopped { cause, reason } => {
+                if cause == StopCause::Cancelled {
+                    let note = format!("{reason}; `orch resume {}` runs it again", self.study.name);
+                    self.report(job, &note);
+                    self.store.mark_cancelled(job.id, &note).await?;
+                } else {
                     let reason = format!(
-                        "exceeded its time limit of {}; {}",
-                        humantime::format_duration(limit),
-                        failure_summary(
-                            &run_dir,
-                            &self.study.adapter.command(&self.case(job)).log_file
-                        )
+                        "{reason}; {}",
+                        failure_summary(&run_dir, &self.log_file(job))
                     );
                     self.fail_or_retry(job, None, reason).await?;
                 }
             }
-            JobStatus::Exited(0) => self.collect(job, &run_dir).await?,
-            JobStatus::Exited(code) => {
-                let log_file = self.study.adapter.command(&self.case(job)).log_file;
-                let reason = format!(
-                    "the solver exited with status {code}; {}",
-                    failure_summary(&run_dir, &log_file)
-                );
-                self.fail_or_retry(job, Some(code), reason).await?;
-            }
             JobStatus::Lost => {
-                let note = "its process ended without an exit status (orch or the machine stopped?); it runs again";
+                let note = "it ended without an exit status (orch, the machine or the scheduler stopped?); it runs again";
                 self.report(job, note);
                 self.store.requeue(job.id, note, false).await?;
             }
         }
         Ok(())
+    }
+
+    /// Stores what the scheduler says about a job when it changed.
+    async fn note_scheduler_state(&self, job: &JobRow, state: &str) -> Result<(), DriverError> {
+        if job.scheduler_state.as_deref() != Some(state) {
+            self.store.set_scheduler_state(job.id, state).await?;
+        }
+        Ok(())
+    }
+
+    /// A local job past its time limit is terminated and fails (or runs again); a batch
+    /// scheduler enforces the limit itself.
+    async fn enforce_time_limit(
+        &mut self,
+        job: &JobRow,
+        run_dir: &Path,
+    ) -> Result<(), DriverError> {
+        let Some(limit) = self.study.executor.time_limit else {
+            return Ok(());
+        };
+        let elapsed = now_s() - job.started_at.unwrap_or_else(now_s);
+        if self.executor.is_batch() || elapsed <= limit.as_secs_f64() {
+            return Ok(());
+        }
+        if let Some(handle) = job.executor_handle.as_deref() {
+            self.executor.terminate(&[handle]).await;
+            self.terminating.insert(job.id, handle.to_string());
+        }
+        let reason = format!(
+            "exceeded its time limit of {}; {}",
+            humantime::format_duration(limit),
+            failure_summary(run_dir, &self.log_file(job))
+        );
+        self.fail_or_retry(job, None, reason).await
+    }
+
+    fn log_file(&self, job: &JobRow) -> String {
+        self.study.adapter.command(&self.case(job)).log_file
     }
 
     /// Parses a successful run and stores its results, or fails the job with why not.
@@ -311,16 +448,31 @@ impl Driver<'_> {
         Ok(())
     }
 
-    /// Ctrl-C / SIGTERM: terminate running jobs, put them back, mark the study.
+    /// Ctrl-C / SIGTERM: local jobs are stopped and put back; jobs on a batch
+    /// scheduler keep running there and `orch resume` re-attaches to them.
     async fn interrupt(&mut self) -> Result<Ending, DriverError> {
+        let jobs = self.store.jobs(self.study_id).await?;
+        if self.executor.is_batch() {
+            let left = jobs.iter().filter(|j| is_launched(j.state())).count();
+            eprintln!(
+                "orch: interrupted; {left} submitted jobs keep running on the cluster; `orch resume {}` re-attaches to them",
+                self.study.name
+            );
+            for job in jobs.iter().filter(|j| j.state() == JobState::Rendered) {
+                self.store
+                    .requeue(job.id, "interrupted by the user", true)
+                    .await?;
+            }
+            return Ok(Ending::Interrupted);
+        }
         eprintln!(
             "orch: interrupted; stopping running jobs (they will run again on `orch resume {}`)",
             self.study.name
         );
-        for job in self.store.jobs(self.study_id).await? {
+        for job in jobs {
             if matches!(job.state(), JobState::Running | JobState::Rendered) {
-                if let Some(handle) = handle_of(&job) {
-                    self.executor.terminate(handle);
+                if let Some(handle) = job.executor_handle.as_deref() {
+                    self.executor.terminate(&[handle]).await;
                 }
                 self.store
                     .requeue(job.id, "interrupted by the user", true)
@@ -333,16 +485,18 @@ impl Driver<'_> {
 
     /// The study was cancelled elsewhere: make sure nothing of ours still runs.
     async fn stop_for_cancel(&mut self) -> Result<Ending, DriverError> {
-        for job in self.store.jobs(self.study_id).await? {
-            if !job.state().is_final() {
-                if let Some(handle) = handle_of(&job) {
-                    self.executor.terminate(handle);
-                }
-                self.store
-                    .mark_cancelled(job.id, "cancelled by orch cancel")
-                    .await
-                    .ok();
-            }
+        let jobs = self.store.jobs(self.study_id).await?;
+        let handles: Vec<&str> = jobs
+            .iter()
+            .filter(|j| !j.state().is_final())
+            .filter_map(|j| j.executor_handle.as_deref())
+            .collect();
+        self.executor.terminate(&handles).await;
+        for job in jobs.iter().filter(|j| !j.state().is_final()) {
+            self.store
+                .mark_cancelled(job.id, "cancelled by orch cancel")
+                .await
+                .ok();
         }
         self.wait_for_terminations().await;
         Ok(Ending::Cancelled)
@@ -351,8 +505,7 @@ impl Driver<'_> {
     async fn wait_for_terminations(&mut self) {
         let deadline =
             Instant::now() + crate::executor::local::TERMINATION_GRACE + Duration::from_secs(2);
-        while self.executor.terminating() > 0 && Instant::now() < deadline {
-            self.executor.tidy();
+        while self.executor.tidy() > 0 && Instant::now() < deadline {
             tokio::time::sleep(Duration::from_millis(50)).await;
         }
     }
@@ -382,13 +535,6 @@ impl Driver<'_> {
             &format!("succeeded in {took:.1} s: {}", shown.join(", ")),
         );
     }
-}
-
-/// The local executor's handle of a job's current attempt, if it has one.
-fn handle_of(job: &JobRow) -> Option<ProcessHandle> {
-    job.executor_handle
-        .as_deref()
-        .and_then(ProcessHandle::parse)
 }
 
 /// Responses and series of a run from what its solver observed.

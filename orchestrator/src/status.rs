@@ -96,6 +96,10 @@ impl StudyDetail {
             .iter()
             .map(|s| s.to_string())
             .collect();
+        let on_scheduler = self.jobs.iter().any(|d| d.job.scheduler_state.is_some());
+        if on_scheduler {
+            header.push("SCHEDULER".into());
+        }
         header.extend(
             self.factors
                 .iter()
@@ -112,6 +116,9 @@ impl StudyDetail {
                 job.attempts.to_string(),
                 job.executor_handle.clone().unwrap_or_else(|| "-".into()),
             ];
+            if on_scheduler {
+                row.push(job.scheduler_state.clone().unwrap_or_else(|| "-".into()));
+            }
             row.extend(detail.natural.iter().map(|v| format!("{v:.6}")));
             row.extend(shown.iter().map(|name| {
                 detail
@@ -175,6 +182,7 @@ impl StudyDetail {
                 "state": d.job.state,
                 "attempts": d.job.attempts,
                 "handle": d.job.executor_handle,
+                "scheduler_state": d.job.scheduler_state,
                 "run_dir": d.job.run_dir,
                 "point": d.point,
                 "replicate": d.job.replicate,

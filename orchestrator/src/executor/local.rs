@@ -8,6 +8,7 @@
 //! SIGKILL after a grace period; a terminated wrapper writes no exit status.
 
 use std::collections::HashMap;
+use std::path::Path;
 use std::process::Stdio;
 use std::time::{Duration, Instant};
 
@@ -16,12 +17,14 @@ use tokio::process::{Child, Command};
 
 use super::process::{self, ProcessHandle};
 use super::{
-    read_exit_status, JobStatus, LaunchError, LaunchSpec, ATTEMPTS_LOG, EXIT_STATUS_FILE,
-    STDERR_FILE, STDOUT_FILE,
+    read_exit_status, Executor, JobStatus, LaunchError, LaunchSpec, Launched, PollError, Recovered,
+    Report, Watched, ATTEMPTS_LOG, EXIT_STATUS_FILE, STDERR_FILE, STDOUT_FILE,
 };
 
 /// How long a terminated job has between SIGTERM and SIGKILL.
 pub const TERMINATION_GRACE: Duration = Duration::from_secs(3);
+/// How often the driver polls local jobs.
+pub const POLL_INTERVAL: Duration = Duration::from_millis(100);
 
 /// The shell wrapper around every local job; `$@` is the solver's command line.
 fn wrapper_script() -> String {
@@ -48,7 +51,7 @@ impl LocalExecutor {
     }
 
     /// Starts a job; returns its handle.
-    pub fn launch(&mut self, spec: &LaunchSpec) -> Result<ProcessHandle, LaunchError> {
+    pub fn start(&mut self, spec: &LaunchSpec) -> Result<ProcessHandle, LaunchError> {
         let launch_error = |source| LaunchError {
             program: spec.command.program.clone(),
             run_dir: spec.run_dir.clone(),
@@ -82,16 +85,17 @@ impl LocalExecutor {
     }
 
     /// Where the job of `handle`, running in `run_dir`, stands.
-    pub fn poll(&mut self, handle: ProcessHandle, run_dir: &std::path::Path) -> JobStatus {
+    pub fn status_of(&mut self, handle: ProcessHandle, run_dir: &Path) -> JobStatus {
+        let running = JobStatus::Running;
         if let Some(child) = self.children.get_mut(&handle.pid) {
             match child.try_wait() {
-                Ok(None) => return JobStatus::Running,
+                Ok(None) => return running,
                 Ok(Some(_)) | Err(_) => {
                     self.children.remove(&handle.pid);
                 }
             }
         } else if handle.is_alive() {
-            return JobStatus::Running;
+            return running;
         }
         match read_exit_status(run_dir) {
             Some(code) => JobStatus::Exited(code),
@@ -100,7 +104,7 @@ impl LocalExecutor {
     }
 
     /// Asks the job's process group to stop, and kills it after [`TERMINATION_GRACE`].
-    pub fn terminate(&mut self, handle: ProcessHandle) {
+    pub fn stop(&mut self, handle: ProcessHandle) {
         if handle.is_alive() || self.children.contains_key(&handle.pid) {
             process::signal_group(handle.pid, Signal::SIGTERM);
             self.dying
@@ -110,7 +114,7 @@ impl LocalExecutor {
 
     /// Reaps finished children and escalates terminations past their grace period.
     /// Call it regularly.
-    pub fn tidy(&mut self) {
+    pub fn reap(&mut self) {
         self.children
             .retain(|_, child| matches!(child.try_wait(), Ok(None)));
         let now = Instant::now();
@@ -131,11 +135,63 @@ impl LocalExecutor {
     }
 }
 
+impl Executor for LocalExecutor {
+    async fn launch(&mut self, spec: &LaunchSpec) -> Result<Launched, LaunchError> {
+        self.start(spec).map(|handle| Launched {
+            handle: handle.to_string(),
+            queued: false,
+        })
+    }
+
+    async fn poll(&mut self, jobs: &[Watched<'_>]) -> Result<Vec<Report>, PollError> {
+        Ok(jobs
+            .iter()
+            .map(|job| Report {
+                status: match ProcessHandle::parse(job.handle) {
+                    Some(handle) => self.status_of(handle, job.run_dir),
+                    None => JobStatus::Lost,
+                },
+                scheduler_state: None,
+            })
+            .collect())
+    }
+
+    async fn terminate(&mut self, handles: &[&str]) {
+        for handle in handles.iter().filter_map(|h| ProcessHandle::parse(h)) {
+            self.stop(handle);
+        }
+    }
+
+    async fn recover_unrecorded(&mut self, _spec_name: &str, run_dir: &Path) -> Recovered {
+        match kill_unrecorded(run_dir) {
+            Some(pid) => Recovered::Killed(pid),
+            None => Recovered::Nothing,
+        }
+    }
+
+    fn tidy(&mut self) -> usize {
+        self.reap();
+        self.terminating()
+    }
+
+    fn is_gone(&self, handle: &str) -> bool {
+        ProcessHandle::parse(handle).is_none_or(|h| !process::group_exists(h.pid))
+    }
+
+    fn poll_interval(&self) -> Duration {
+        POLL_INTERVAL
+    }
+
+    fn is_batch(&self) -> bool {
+        false
+    }
+}
+
 /// Kills a job that an `orch` launched in `run_dir` but stopped before recording its
 /// handle (the window between spawn and the store's update). The wrapper's last
 /// `start <pid>` line in the attempts log names it; it counts as that job only while
 /// its working directory is `run_dir`. Returns the pid it killed.
-pub fn kill_unrecorded(run_dir: &std::path::Path) -> Option<i64> {
+pub fn kill_unrecorded(run_dir: &Path) -> Option<i64> {
     let log = std::fs::read_to_string(run_dir.join(ATTEMPTS_LOG)).ok()?;
     let pid: i64 = log
         .lines()
@@ -159,13 +215,12 @@ pub fn kill_unrecorded(run_dir: &std::path::Path) -> Option<i64> {
 
 #[cfg(test)]
 mod tests {
-    use std::path::Path;
-
     use super::*;
     use orch_adapters::CommandSpec;
 
     fn spec(dir: &Path, script: &str) -> LaunchSpec {
         LaunchSpec {
+            name: "test/job".into(),
             run_dir: dir.to_path_buf(),
             command: CommandSpec {
                 program: "/bin/sh".into(),
@@ -180,7 +235,7 @@ mod tests {
     async fn wait(executor: &mut LocalExecutor, handle: ProcessHandle, dir: &Path) -> JobStatus {
         let deadline = Instant::now() + Duration::from_secs(20);
         loop {
-            let status = executor.poll(handle, dir);
+            let status = executor.status_of(handle, dir);
             if status != JobStatus::Running || Instant::now() > deadline {
                 return status;
             }
@@ -193,7 +248,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let mut executor = LocalExecutor::new();
         let handle = executor
-            .launch(&spec(dir.path(), "echo out; echo err >&2; exit 3"))
+            .start(&spec(dir.path(), "echo out; echo err >&2; exit 3"))
             .unwrap();
         assert_eq!(
             wait(&mut executor, handle, dir.path()).await,
@@ -220,28 +275,28 @@ mod tests {
         let mut executor = LocalExecutor::new();
         // A grandchild that ignores SIGTERM and would outlive its parent.
         let handle = executor
-            .launch(&spec(
+            .start(&spec(
                 dir.path(),
                 "sh -c 'trap \"\" TERM; sleep 60' & sleep 60",
             ))
             .unwrap();
         tokio::time::sleep(Duration::from_millis(200)).await;
-        executor.terminate(handle);
+        executor.stop(handle);
         let deadline = Instant::now() + TERMINATION_GRACE + Duration::from_secs(5);
         while process::group_exists(handle.pid) && Instant::now() < deadline {
-            executor.tidy();
+            executor.reap();
             tokio::time::sleep(Duration::from_millis(50)).await;
         }
         assert!(!process::group_exists(handle.pid));
         // No exit status: the attempt did not finish.
-        assert_eq!(executor.poll(handle, dir.path()), JobStatus::Lost);
+        assert_eq!(executor.status_of(handle, dir.path()), JobStatus::Lost);
     }
 
     #[tokio::test]
     async fn an_unrecorded_job_is_found_by_its_attempts_log_and_killed() {
         let dir = tempfile::tempdir().unwrap();
         let handle = LocalExecutor::new()
-            .launch(&spec(dir.path(), "sleep 30"))
+            .start(&spec(dir.path(), "sleep 30"))
             .unwrap();
         tokio::time::sleep(Duration::from_millis(200)).await;
         assert_eq!(kill_unrecorded(dir.path()), Some(handle.pid));
@@ -254,11 +309,11 @@ mod tests {
     async fn a_job_started_by_another_executor_is_followed_by_handle() {
         let dir = tempfile::tempdir().unwrap();
         let handle = LocalExecutor::new()
-            .launch(&spec(dir.path(), "sleep 0.3; exit 0"))
+            .start(&spec(dir.path(), "sleep 0.3; exit 0"))
             .unwrap();
         // A fresh executor, as after `orch` was killed and resumed.
         let mut fresh = LocalExecutor::new();
-        assert_eq!(fresh.poll(handle, dir.path()), JobStatus::Running);
+        assert_eq!(fresh.status_of(handle, dir.path()), JobStatus::Running);
         assert_eq!(
             wait(&mut fresh, handle, dir.path()).await,
             JobStatus::Exited(0)

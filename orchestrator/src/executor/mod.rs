@@ -9,12 +9,15 @@
 
 pub mod local;
 pub mod process;
+pub mod slurm;
 
 use std::path::{Path, PathBuf};
+use std::time::Duration;
 
 use orch_adapters::CommandSpec;
 
 pub use local::LocalExecutor;
+pub use slurm::{SlurmExecutor, SlurmSettings};
 
 /// File in the run directory where a job's wrapper writes the solver's exit status.
 pub const EXIT_STATUS_FILE: &str = "exit_status";
@@ -25,24 +28,134 @@ pub const STDERR_FILE: &str = "stderr.txt";
 /// One line per attempt start and end, kept across attempts, in the run directory.
 pub const ATTEMPTS_LOG: &str = "orch-attempts.log";
 
+/// Launches jobs and reports on them, in the shape batch schedulers impose (after
+/// HyperQueue's `QueueHandler`): launch one job, poll many at once, terminate some.
+/// The driver decides what the answers mean for the study.
+///
+/// orch drives a study on one task, so the futures need not be `Send`.
+#[allow(async_fn_in_trait)]
+pub trait Executor {
+    /// Starts a job (local) or hands it to the scheduler (Slurm).
+    async fn launch(&mut self, spec: &LaunchSpec) -> Result<Launched, LaunchError>;
+
+    /// Where each of `jobs` stands, in the same order; one query for all of them. An
+    /// error means the executor could not be asked (e.g. slurmctld is down): nothing
+    /// is known, nothing should change.
+    async fn poll(&mut self, jobs: &[Watched<'_>]) -> Result<Vec<Report>, PollError>;
+
+    /// Stops the jobs of `handles` (local: SIGTERM, SIGKILL after a grace period;
+    /// Slurm: one `scancel`).
+    async fn terminate(&mut self, handles: &[&str]);
+
+    /// Deals with a job that a stopped `orch` launched but did not record: a local
+    /// process is killed (it will run again), a Slurm job is found by name and
+    /// re-attached (so nothing is submitted twice).
+    async fn recover_unrecorded(&mut self, spec_name: &str, run_dir: &Path) -> Recovered;
+
+    /// Housekeeping between polls (reaps children, escalates terminations); returns the
+    /// number of jobs still being terminated.
+    fn tidy(&mut self) -> usize;
+
+    /// True once nothing of the job of `handle` runs any more, so that its run
+    /// directory can be used by the next attempt.
+    fn is_gone(&self, handle: &str) -> bool;
+
+    /// How often the driver should poll.
+    fn poll_interval(&self) -> Duration;
+
+    /// True for a batch scheduler: jobs outlive `orch` (Ctrl-C leaves them running and
+    /// `orch resume` re-attaches) and the scheduler enforces time limits itself.
+    fn is_batch(&self) -> bool;
+
+    /// Commands run against the scheduler so far (`"12 sbatch, 40 squeue"`), if any.
+    fn calls(&self) -> Option<String> {
+        None
+    }
+}
+
 /// What to launch.
 #[derive(Debug, Clone)]
 pub struct LaunchSpec {
+    /// `study/job`, unique within a project; names the job on a scheduler.
+    pub name: String,
     /// The run directory, also the working directory.
     pub run_dir: PathBuf,
     /// The command the adapter describes.
     pub command: CommandSpec,
 }
 
-/// What a poll found.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// A launched job.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Launched {
+    /// What the store keeps to find the job again (`pid:ticks`, `slurm:<id>`).
+    pub handle: String,
+    /// True when it waits in a scheduler's queue; false when it already runs.
+    pub queued: bool,
+}
+
+/// A job to poll.
+#[derive(Debug, Clone, Copy)]
+pub struct Watched<'a> {
+    /// Its handle.
+    pub handle: &'a str,
+    /// Its run directory, where it records its exit status.
+    pub run_dir: &'a Path,
+}
+
+/// What a poll found about one job.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Report {
+    /// Where it stands.
+    pub status: JobStatus,
+    /// What a batch scheduler says about it (`PENDING (Priority)`, `RUNNING on n1`,
+    /// `TIMEOUT (TimeLimit) on n2`); none for local jobs.
+    pub scheduler_state: Option<String>,
+}
+
+/// Where a job stands.
+#[derive(Debug, Clone, PartialEq, Eq)]
 pub enum JobStatus {
-    /// Still running.
+    /// Waiting in the scheduler's queue.
+    Queued,
+    /// Running.
     Running,
     /// The solver ended with this exit status.
     Exited(i32),
-    /// The process is gone and left no exit status (killed, or the machine rebooted).
+    /// The scheduler ended the job before the solver's exit was recorded.
+    Stopped {
+        /// Why, as orch acts on it.
+        cause: StopCause,
+        /// What the scheduler said, for the user.
+        reason: String,
+    },
+    /// The job is gone and left no exit status (killed, or the machine rebooted).
     Lost,
+}
+
+/// Why a scheduler ended a job.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StopCause {
+    /// It ran past its time limit.
+    TimeLimit,
+    /// Someone cancelled it outside orch.
+    Cancelled,
+    /// Its node failed or it was preempted: not the job's fault, worth another attempt.
+    NodeLost,
+    /// It used more memory than it asked for.
+    OutOfMemory,
+    /// Ended in a way orch cannot attribute (e.g. no exit status was recorded).
+    Other,
+}
+
+/// What [`Executor::recover_unrecorded`] did.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Recovered {
+    /// Found the job still known to the scheduler: this is its handle.
+    Attached(String),
+    /// Killed a process it left behind (this pid).
+    Killed(i64),
+    /// Nothing of it was found.
+    Nothing,
 }
 
 /// Why a launch failed.
@@ -56,6 +169,16 @@ pub struct LaunchError {
     /// The cause.
     #[source]
     pub source: std::io::Error,
+}
+
+/// Why the executor could not be asked about its jobs.
+#[derive(Debug, Clone, thiserror::Error)]
+#[error("cannot ask `{command}` about the jobs: {message}")]
+pub struct PollError {
+    /// The command that failed.
+    pub command: String,
+    /// What it said.
+    pub message: String,
 }
 
 /// Reads the exit status a job's wrapper wrote, if it did.

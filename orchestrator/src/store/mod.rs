@@ -541,7 +541,50 @@ impl Store {
         .await
     }
 
-    /// running → succeeded, replacing the job's responses and series.
+    /// rendered → submitted to a batch scheduler with its handle; counts an attempt.
+    /// The attempt starts (see [`Store::mark_started`]) when the scheduler runs it.
+    pub async fn mark_submitted(&self, job_id: i64, handle: &str) -> Result<(), StoreError> {
+        self.transition_alone(
+            job_id,
+            &[JobState::Rendered],
+            JobState::Submitted,
+            "attempts = attempts + 1, executor_handle = ?, started_at = NULL, finished_at = NULL, exit_code = NULL, error = NULL, scheduler_state = NULL",
+            vec![Bind::Text(handle.to_string())],
+            None,
+        )
+        .await
+    }
+
+    /// submitted → running: the scheduler started the job at `started_at`.
+    pub async fn mark_started(&self, job_id: i64, started_at: f64) -> Result<(), StoreError> {
+        self.transition_alone(
+            job_id,
+            &[JobState::Submitted],
+            JobState::Running,
+            "started_at = ?",
+            vec![Bind::Real(started_at)],
+            None,
+        )
+        .await
+    }
+
+    /// Records what the batch scheduler says about a job now; not a transition.
+    pub async fn set_scheduler_state(
+        &self,
+        job_id: i64,
+        scheduler_state: &str,
+    ) -> Result<(), StoreError> {
+        sqlx::query("UPDATE jobs SET scheduler_state = ? WHERE id = ?")
+            .bind(scheduler_state)
+            .bind(job_id)
+            .execute(&self.pool)
+            .await
+            .map_err(query_error("record a job's scheduler state"))?;
+        Ok(())
+    }
+
+    /// running (or submitted, when the scheduler ran it between two polls) → succeeded,
+    /// replacing the job's responses and series.
     pub async fn mark_succeeded(
         &self,
         job_id: i64,
@@ -556,7 +599,7 @@ impl Store {
         self.transition(
             &mut tx,
             job_id,
-            &[JobState::Running],
+            &[JobState::Submitted, JobState::Running],
             JobState::Succeeded,
             "exit_code = ?, finished_at = ?, error = NULL",
             vec![Bind::Int(exit_code as i64), Bind::Real(now_s())],
@@ -596,7 +639,7 @@ impl Store {
             .map_err(query_error("commit a job's results"))
     }
 
-    /// pending, rendered or running → failed with the reason a user needs.
+    /// pending, rendered, submitted or running → failed with the reason a user needs.
     pub async fn mark_failed(
         &self,
         job_id: i64,
@@ -605,7 +648,12 @@ impl Store {
     ) -> Result<(), StoreError> {
         self.transition_alone(
             job_id,
-            &[JobState::Pending, JobState::Rendered, JobState::Running],
+            &[
+                JobState::Pending,
+                JobState::Rendered,
+                JobState::Submitted,
+                JobState::Running,
+            ],
             JobState::Failed,
             "exit_code = ?, finished_at = ?, error = ?",
             vec![

@@ -170,7 +170,8 @@ pub struct JobRow {
     pub state: String,
     /// Attempts started.
     pub attempts: i64,
-    /// The executor's handle of the current attempt (local: `pid:start-ticks`).
+    /// The executor's handle of the current attempt (local: `pid:start-ticks`;
+    /// Slurm: `slurm:<job id>`).
     pub executor_handle: Option<String>,
     /// Run directory.
     pub run_dir: String,
@@ -182,6 +183,9 @@ pub struct JobRow {
     pub exit_code: Option<i64>,
     /// Why the job failed or was put back.
     pub error: Option<String>,
+    /// What a batch scheduler last said about the current attempt ("PENDING
+    /// (Priority)", "RUNNING on n1"); none for local jobs.
+    pub scheduler_state: Option<String>,
 }
 
 impl JobRow {

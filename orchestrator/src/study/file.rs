@@ -243,6 +243,8 @@ pub enum ExecutorKind {
     /// Processes on this machine.
     #[default]
     Local,
+    /// Batch jobs on a Slurm cluster (`sbatch`, `squeue`, `scancel`).
+    Slurm,
 }
 
 /// The `executor:` section.
@@ -261,6 +263,30 @@ pub struct ExecutorFile {
     /// Extra attempts for a job that failed.
     #[serde(default)]
     pub retries: u32,
+    /// Slurm: the partition (default: the cluster's default partition).
+    #[serde(default)]
+    pub partition: Option<String>,
+    /// Slurm: CPUs per job (default: the cores the solver's command asks for).
+    #[serde(default)]
+    pub cpus_per_task: Option<u32>,
+    /// Slurm: memory per node, as sbatch writes it (`4000`, `500M`, `2G`).
+    #[serde(default)]
+    pub mem: Option<String>,
+    /// Slurm: the account to charge.
+    #[serde(default)]
+    pub account: Option<String>,
+    /// Slurm: the quality of service.
+    #[serde(default)]
+    pub qos: Option<String>,
+    /// Slurm: further `#SBATCH` options, each one `--option[=value]`.
+    #[serde(default)]
+    pub extra_sbatch: Vec<String>,
+    /// Slurm: jobs submitted and not yet final at once (default 500).
+    #[serde(default)]
+    pub max_submitted: Option<usize>,
+    /// Slurm: how often `squeue` is asked about the jobs (default 5 s; one call for all).
+    #[serde(default)]
+    pub poll_interval: Option<TimeLimit>,
 }
 
 /// A duration written as seconds or as humantime text.

@@ -59,7 +59,7 @@ fn unknown_key_is_refused_with_line_and_column() {
     let text = VALID.replace("  retries: 1\n", "  retries: 1\n  retrys: 2\n");
     assert_eq!(
         error(&text),
-        "jobs/study.yaml:7:3: executor.retrys: unknown field `retrys`, expected one of `kind`, `max_parallel`, `time_limit`, `retries`"
+        "jobs/study.yaml:7:3: executor.retrys: unknown field `retrys`, expected one of `kind`, `max_parallel`, `time_limit`, `retries`, `partition`, `cpus_per_task`, `mem`, `account`, `qos`, `extra_sbatch`, `max_submitted`, `poll_interval`"
     );
 }
 
@@ -199,5 +199,61 @@ fn objectives_name_their_responses_and_need_one_form() {
     assert_eq!(
         error(&with("uncertainty: {parameters: [{name: density, distribution: normal, mean: 2500, std: 100}]}\n")),
         "jobs/study.yaml:18:35: uncertainty.parameters[0].name: `density` must be a factor of the study: the Monte Carlo runs through the design surface; add it to `factors:` with a range covering its distribution"
+    );
+}
+
+#[test]
+fn a_slurm_executor_takes_its_submission_options() {
+    let text = VALID.replace(
+        "executor:\n  max_parallel: 2\n",
+        "executor:\n  kind: slurm\n  partition: debug\n  cpus_per_task: 2\n  mem: 2G\n  account: granular\n  qos: short\n  extra_sbatch: [--constraint=avx2]\n  max_submitted: 40\n  poll_interval: 2s\n",
+    );
+    let study = load(&text).unwrap();
+    assert_eq!(study.executor.kind, ExecutorKind::Slurm);
+    assert_eq!(study.executor.max_parallel, 40);
+    let slurm = study.executor.slurm.unwrap();
+    assert_eq!(slurm.partition.as_deref(), Some("debug"));
+    assert_eq!(slurm.cpus_per_task, Some(2));
+    assert_eq!(slurm.mem.as_deref(), Some("2G"));
+    assert_eq!(slurm.extra_sbatch, vec!["--constraint=avx2".to_string()]);
+    assert_eq!(slurm.time_limit, Some(Duration::from_secs(600)));
+    assert_eq!(slurm.poll_interval, Duration::from_secs(2));
+    // Defaults.
+    let text = VALID.replace("  max_parallel: 2\n", "  kind: slurm\n");
+    let study = load(&text).unwrap();
+    assert_eq!(study.executor.max_parallel, 500);
+    assert_eq!(
+        study.executor.slurm.unwrap().poll_interval,
+        Duration::from_secs(5)
+    );
+}
+
+#[test]
+fn slurm_options_are_checked_and_name_their_field() {
+    let slurm = |line: &str| {
+        error(&VALID.replace("  max_parallel: 2\n", &format!("  kind: slurm\n  {line}\n")))
+    };
+    assert_eq!(
+        slurm("mem: 2 GB"),
+        "jobs/study.yaml:5:8: executor.mem: expected one word without spaces or quotes, got \"2 GB\""
+    );
+    assert!(slurm("mem: 2GB").contains(
+        "executor.mem: expected a size as sbatch writes it (4000, 500M, 2G), got \"2GB\""
+    ));
+    assert!(slurm("extra_sbatch: [exclusive]").contains(
+        "executor.extra_sbatch[0]: expected one sbatch option such as `--constraint=avx2`, got \"exclusive\""
+    ));
+    assert!(slurm("max_parallel: 4").contains(
+        "executor.max_parallel: Slurm decides how many jobs run at once; use max_submitted"
+    ));
+    assert!(slurm("cpus_per_task: 0").contains("executor.cpus_per_task: expected at least 1"));
+    assert!(
+        slurm("poll_interval: 10ms").contains("executor.poll_interval: expected at least 200ms")
+    );
+    // A local study with a Slurm option is told so.
+    let local = error(&VALID.replace("  retries: 1\n", "  retries: 1\n  partition: debug\n"));
+    assert!(
+        local.contains("executor.partition: is a Slurm option; add `kind: slurm` to the executor, or remove it"),
+        "{local}"
     );
 }

@@ -1,0 +1,403 @@
+//! The Slurm executor: one batch job per orch job, `sbatch --parsable` to submit, one
+//! `squeue` per poll for all jobs, `scancel` to stop.
+//!
+//! Handles are `slurm:<job id>`. Each job's batch script ([`script`]) records the
+//! solver's exit status in the run directory; Slurm's state decides only what the
+//! script could not record: a time limit, a `scancel`, a failed node, preemption, or
+//! memory. A job slurmctld no longer lists (after `MinJobAge`) is judged by its run
+//! directory alone. Jobs outlive `orch`: a new `orch` re-attaches to them by id.
+
+pub mod parse;
+pub mod script;
+
+use std::collections::HashMap;
+use std::path::Path;
+use std::time::Duration;
+
+use tokio::process::Command;
+
+use self::parse::{SlurmJob, SlurmState};
+use super::{
+    read_exit_status, Executor, JobStatus, LaunchError, LaunchSpec, Launched, PollError, Recovered,
+    Report, StopCause, Watched, EXIT_STATUS_FILE,
+};
+
+/// Default time between two `squeue` calls.
+pub const DEFAULT_POLL_INTERVAL: Duration = Duration::from_secs(5);
+/// Default number of jobs orch keeps submitted and unfinished at once.
+pub const DEFAULT_MAX_SUBMITTED: usize = 500;
+
+/// How a study's jobs are submitted: its `executor:` section for `kind: slurm`.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct SlurmSettings {
+    /// `--partition` (none: the cluster's default).
+    pub partition: Option<String>,
+    /// `--cpus-per-task` (none: the cores the solver's command asks for).
+    pub cpus_per_task: Option<u32>,
+    /// `--mem`, as sbatch writes it (`2G`).
+    pub mem: Option<String>,
+    /// `--account`.
+    pub account: Option<String>,
+    /// `--qos`.
+    pub qos: Option<String>,
+    /// Further `#SBATCH` lines, each `--option[=value]`.
+    pub extra_sbatch: Vec<String>,
+    /// `--time`, rounded up to whole minutes.
+    pub time_limit: Option<Duration>,
+    /// Time between two `squeue` calls.
+    pub poll_interval: Duration,
+}
+
+/// A Slurm job id read from an orch handle `slurm:<id>`.
+pub fn job_id(handle: &str) -> Option<u64> {
+    handle.strip_prefix("slurm:")?.parse().ok()
+}
+
+/// Submits to, asks and cancels on the Slurm cluster that the `sbatch`, `squeue` and
+/// `scancel` on PATH talk to (`SLURM_CONF` chooses the cluster).
+#[derive(Debug)]
+pub struct SlurmExecutor {
+    settings: SlurmSettings,
+    /// Whether `squeue --json` works here; unknown until the first poll.
+    json: Option<bool>,
+    calls: HashMap<&'static str, u64>,
+}
+
+impl SlurmExecutor {
+    /// An executor submitting with `settings`.
+    pub fn new(settings: SlurmSettings) -> SlurmExecutor {
+        SlurmExecutor {
+            settings,
+            json: None,
+            calls: HashMap::new(),
+        }
+    }
+
+    /// Runs a Slurm command; its stdout, or what went wrong.
+    async fn run(
+        &mut self,
+        program: &'static str,
+        args: &[&str],
+        dir: Option<&Path>,
+    ) -> Result<String, String> {
+        *self.calls.entry(program).or_default() += 1;
+        let mut command = Command::new(program);
+        command.args(args).kill_on_drop(true);
+        if let Some(dir) = dir {
+            command.current_dir(dir);
+        }
+        let output = command.output().await.map_err(|e| {
+            format!("cannot run `{program}` ({e}); is Slurm installed (apt-get install slurm-wlm) and on PATH?")
+        })?;
+        if !output.status.success() {
+            let stderr = String::from_utf8_lossy(&output.stderr);
+            return Err(format!("{} ({})", stderr.trim(), output.status));
+        }
+        Ok(String::from_utf8_lossy(&output.stdout).into_owned())
+    }
+
+    /// Every job slurmctld holds, by id: `squeue --json` where it works, else text.
+    async fn queue(&mut self) -> Result<HashMap<u64, SlurmJob>, PollError> {
+        if self.json != Some(false) {
+            let answer = self.run("squeue", &["--json"], None).await;
+            match answer.as_deref().map(parse::parse_squeue_json) {
+                Ok(Ok(jobs)) => {
+                    self.json = Some(true);
+                    return Ok(jobs.into_iter().map(|j| (j.id, j)).collect());
+                }
+                Ok(Err(e)) if self.json == Some(true) => {
+                    return Err(PollError {
+                        command: "squeue --json".into(),
+                        message: e.to_string(),
+                    })
+                }
+                Err(e) if self.json == Some(true) => {
+                    return Err(PollError {
+                        command: "squeue --json".into(),
+                        message: e.clone(),
+                    })
+                }
+                // Unknown yet and it failed: try the text form; if that works, this
+                // squeue has no JSON and text is used from now on.
+                _ => {}
+            }
+        }
+        let format = format!("--format={}", parse::SQUEUE_TEXT_FORMAT);
+        let text = self
+            .run("squeue", &["--noheader", "--states=all", &format], None)
+            .await
+            .map_err(|message| PollError {
+                command: "squeue".into(),
+                message,
+            })?;
+        let jobs = parse::parse_squeue_text(&text).map_err(|e| PollError {
+            command: "squeue".into(),
+            message: e.to_string(),
+        })?;
+        if self.json.is_none() {
+            tracing::info!("squeue --json does not work here; reading squeue's text output");
+            self.json = Some(false);
+        }
+        Ok(jobs.into_iter().map(|j| (j.id, j)).collect())
+    }
+}
+
+/// What a job's state means for orch: Slurm's view where the batch script could not
+/// have recorded anything, the run directory's exit status otherwise. `recorded_exit`
+/// is the status the batch script wrote, if any.
+pub fn report_of(id: u64, job: Option<&SlurmJob>, recorded_exit: Option<i32>) -> Report {
+    let Some(job) = job else {
+        // slurmctld forgot the job (MinJobAge): its run directory is all there is.
+        return Report {
+            status: recorded_exit.map_or(JobStatus::Lost, JobStatus::Exited),
+            scheduler_state: Some("no longer listed by squeue".into()),
+        };
+    };
+    let stopped = |cause, what: &str| JobStatus::Stopped {
+        cause,
+        reason: format!("Slurm job {id} {what}: {}", job.describe()),
+    };
+    let status = match job.state {
+        SlurmState::Pending | SlurmState::Other(_) => JobStatus::Queued,
+        SlurmState::Running | SlurmState::Completing | SlurmState::Suspended => {
+            match recorded_exit {
+                // The batch script has ended; Slurm is still cleaning up.
+                Some(code) if job.state == SlurmState::Completing => JobStatus::Exited(code),
+                _ => JobStatus::Running,
+            }
+        }
+        SlurmState::Completed | SlurmState::Failed => match recorded_exit {
+            Some(code) => JobStatus::Exited(code),
+            None => stopped(
+                StopCause::Other,
+                &format!("ended without recording an exit status (its batch script failed; see slurm-{id}.out)"),
+            ),
+        },
+        SlurmState::Timeout | SlurmState::Deadline => {
+            stopped(StopCause::TimeLimit, "was stopped at its time limit")
+        }
+        SlurmState::Cancelled => stopped(StopCause::Cancelled, "was cancelled outside orch"),
+        SlurmState::NodeFail | SlurmState::Preempted | SlurmState::BootFail => {
+            stopped(StopCause::NodeLost, "lost its node")
+        }
+        SlurmState::OutOfMemory => stopped(
+            StopCause::OutOfMemory,
+            "ran out of memory (raise executor.mem)",
+        ),
+    };
+    Report {
+        status,
+        scheduler_state: Some(job.describe()),
+    }
+}
+
+impl Executor for SlurmExecutor {
+    async fn launch(&mut self, spec: &LaunchSpec) -> Result<Launched, LaunchError> {
+        let launch_error = |source| LaunchError {
+            program: "sbatch".into(),
+            run_dir: spec.run_dir.clone(),
+            source,
+        };
+        let _ = std::fs::remove_file(spec.run_dir.join(EXIT_STATUS_FILE));
+        std::fs::write(
+            spec.run_dir.join(script::BATCH_SCRIPT),
+            script::batch_script(spec, &self.settings),
+        )
+        .map_err(launch_error)?;
+        let stdout = self
+            .run(
+                "sbatch",
+                &["--parsable", script::BATCH_SCRIPT],
+                Some(&spec.run_dir),
+            )
+            .await
+            .map_err(|e| {
+                launch_error(std::io::Error::other(format!(
+                    "sbatch refused the job: {e}"
+                )))
+            })?;
+        let id = parse::parse_sbatch_output(&stdout)
+            .map_err(|e| launch_error(std::io::Error::other(e)))?;
+        Ok(Launched {
+            handle: format!("slurm:{id}"),
+            queued: true,
+        })
+    }
+
+    async fn poll(&mut self, jobs: &[Watched<'_>]) -> Result<Vec<Report>, PollError> {
+        if jobs.is_empty() {
+            return Ok(Vec::new());
+        }
+        let queue = self.queue().await?;
+        Ok(jobs
+            .iter()
+            .map(|job| match job_id(job.handle) {
+                Some(id) => report_of(id, queue.get(&id), read_exit_status(job.run_dir)),
+                None => Report {
+                    status: JobStatus::Lost,
+                    scheduler_state: None,
+                },
+            })
+            .collect())
+    }
+
+    async fn terminate(&mut self, handles: &[&str]) {
+        let ids: Vec<String> = handles
+            .iter()
+            .filter_map(|h| job_id(h))
+            .map(|id| id.to_string())
+            .collect();
+        if ids.is_empty() {
+            return;
+        }
+        let args: Vec<&str> = ids.iter().map(String::as_str).collect();
+        if let Err(e) = self.run("scancel", &args, None).await {
+            tracing::warn!("scancel {}: {e}", ids.join(" "));
+        }
+    }
+
+    async fn recover_unrecorded(&mut self, spec_name: &str, run_dir: &Path) -> Recovered {
+        let name = format!("--name={}", script::slurm_job_name(spec_name));
+        let Ok(text) = self
+            .run(
+                "squeue",
+                &["--noheader", "--states=all", &name, "--format=%i|%Z"],
+                None,
+            )
+            .await
+        else {
+            return Recovered::Nothing;
+        };
+        let wanted = std::fs::canonicalize(run_dir).unwrap_or_else(|_| run_dir.to_path_buf());
+        // The newest job of that name in that directory: the one orch last submitted.
+        text.lines()
+            .filter_map(|line| line.trim().split_once('|'))
+            .filter(|(_, dir)| Path::new(dir) == wanted || Path::new(dir) == run_dir)
+            .filter_map(|(id, _)| id.parse::<u64>().ok())
+            .max()
+            .map_or(Recovered::Nothing, |id| {
+                Recovered::Attached(format!("slurm:{id}"))
+            })
+    }
+
+    fn tidy(&mut self) -> usize {
+        0
+    }
+
+    fn is_gone(&self, _handle: &str) -> bool {
+        // orch terminates Slurm jobs only to cancel them; a retry is a new Slurm job.
+        true
+    }
+
+    fn poll_interval(&self) -> Duration {
+        self.settings.poll_interval
+    }
+
+    fn is_batch(&self) -> bool {
+        true
+    }
+
+    fn calls(&self) -> Option<String> {
+        let mut calls: Vec<String> = self
+            .calls
+            .iter()
+            .map(|(program, n)| format!("{n} {program}"))
+            .collect();
+        calls.sort();
+        Some(calls.join(", "))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn job(state: &str, reason: &str) -> SlurmJob {
+        SlurmJob {
+            id: 7,
+            state: SlurmState::parse(state),
+            reason: reason.into(),
+            nodes: "n2".into(),
+        }
+    }
+
+    fn status(state: &str, reason: &str, recorded: Option<i32>) -> JobStatus {
+        report_of(7, Some(&job(state, reason)), recorded).status
+    }
+
+    fn cause(status: JobStatus) -> Option<StopCause> {
+        match status {
+            JobStatus::Stopped { cause, .. } => Some(cause),
+            _ => None,
+        }
+    }
+
+    #[test]
+    fn the_recorded_exit_status_decides_completed_and_failed_jobs() {
+        assert_eq!(status("COMPLETED", "None", Some(0)), JobStatus::Exited(0));
+        assert_eq!(
+            status("FAILED", "NonZeroExitCode", Some(3)),
+            JobStatus::Exited(3)
+        );
+        assert_eq!(status("COMPLETING", "None", Some(1)), JobStatus::Exited(1));
+        assert_eq!(status("COMPLETING", "None", None), JobStatus::Running);
+        let unrecorded = status("FAILED", "NonZeroExitCode", None);
+        assert_eq!(cause(unrecorded.clone()), Some(StopCause::Other));
+        assert!(format!("{unrecorded:?}").contains("slurm-7.out"));
+    }
+
+    #[test]
+    fn slurm_decides_what_the_batch_script_could_not_record() {
+        for (state, reason, expected) in [
+            ("TIMEOUT", "TimeLimit", StopCause::TimeLimit),
+            ("DEADLINE", "None", StopCause::TimeLimit),
+            ("CANCELLED", "None", StopCause::Cancelled),
+            ("NODE_FAIL", "NodeDown", StopCause::NodeLost),
+            ("PREEMPTED", "None", StopCause::NodeLost),
+            ("BOOT_FAIL", "None", StopCause::NodeLost),
+            ("OUT_OF_MEMORY", "OutOfMemory", StopCause::OutOfMemory),
+        ] {
+            // Even when the solver managed to exit (SIGTERM) and an exit status exists.
+            for recorded in [None, Some(143)] {
+                assert_eq!(
+                    cause(status(state, reason, recorded)),
+                    Some(expected),
+                    "{state}"
+                );
+            }
+        }
+        let JobStatus::Stopped { reason, .. } = status("TIMEOUT", "TimeLimit", None) else {
+            unreachable!()
+        };
+        assert_eq!(
+            reason,
+            "Slurm job 7 was stopped at its time limit: TIMEOUT (TimeLimit) on n2"
+        );
+    }
+
+    #[test]
+    fn waiting_and_running_jobs_carry_what_slurm_says() {
+        let pending = report_of(7, Some(&job("PENDING", "Priority")), None);
+        assert_eq!(pending.status, JobStatus::Queued);
+        assert_eq!(
+            pending.scheduler_state.as_deref(),
+            Some("PENDING (Priority) on n2")
+        );
+        assert_eq!(status("RUNNING", "None", None), JobStatus::Running);
+        assert_eq!(status("CONFIGURING", "None", None), JobStatus::Queued);
+    }
+
+    #[test]
+    fn a_forgotten_job_is_judged_by_its_run_directory() {
+        assert_eq!(report_of(7, None, Some(0)).status, JobStatus::Exited(0));
+        assert_eq!(report_of(7, None, Some(2)).status, JobStatus::Exited(2));
+        assert_eq!(report_of(7, None, None).status, JobStatus::Lost);
+    }
+
+    #[test]
+    fn handles_name_slurm_job_ids() {
+        assert_eq!(job_id("slurm:123"), Some(123));
+        assert_eq!(job_id("123:456"), None);
+        assert_eq!(job_id("slurm:"), None);
+    }
+}

@@ -1,0 +1,319 @@
+//! What Slurm's commands print, parsed without running them (pure, tested on output
+//! captured from Slurm 22.05).
+//!
+//! `squeue --json` changed shape across Slurm releases: 22.05 (OpenAPI v0.0.38) writes
+//! `"job_state": "RUNNING"` and `"exit_code": 3`, later releases `"job_state":
+//! ["RUNNING"]` and `"exit_code": {"return_code": {"number": 3, ...}}`. Both are read.
+//! Where `--json` is missing, `squeue --format` text is read instead.
+
+use serde_json::Value;
+
+/// The `--format` that [`parse_squeue_text`] reads: id, state, reason, nodes.
+pub const SQUEUE_TEXT_FORMAT: &str = "%i|%T|%r|%N";
+
+/// A job as `squeue` reports it.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct SlurmJob {
+    /// Slurm's job id.
+    pub id: u64,
+    /// Its state.
+    pub state: SlurmState,
+    /// Slurm's reason for the state (`Priority`, `TimeLimit`, `NonZeroExitCode`, …);
+    /// empty when Slurm gives none.
+    pub reason: String,
+    /// Nodes it runs or ran on (`n1`, `n[1-2]`), empty while pending.
+    pub nodes: String,
+}
+
+/// Slurm job states (`squeue` long names); the ones orch acts on are variants.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum SlurmState {
+    /// Waiting for resources or priority.
+    Pending,
+    /// Running.
+    Running,
+    /// The batch script ended; Slurm is cleaning up.
+    Completing,
+    /// Suspended by an administrator or preemption.
+    Suspended,
+    /// The batch script exited 0.
+    Completed,
+    /// The batch script exited non-zero.
+    Failed,
+    /// Killed at its time limit.
+    Timeout,
+    /// Cancelled with `scancel` (or by an administrator).
+    Cancelled,
+    /// A node it ran on failed.
+    NodeFail,
+    /// Preempted by a higher-priority job.
+    Preempted,
+    /// Killed for using more memory than it asked for.
+    OutOfMemory,
+    /// Its node could not be booted.
+    BootFail,
+    /// It could not finish before its deadline.
+    Deadline,
+    /// Any other state (`CONFIGURING`, `REQUEUED`, `RESIZING`, `SIGNALING`, …): not final.
+    Other(String),
+}
+
+impl SlurmState {
+    /// Reads Slurm's long state name (`RUNNING`) or short code (`R`).
+    pub fn parse(text: &str) -> SlurmState {
+        match text.trim() {
+            "PENDING" | "PD" => SlurmState::Pending,
+            "RUNNING" | "R" => SlurmState::Running,
+            "COMPLETING" | "CG" => SlurmState::Completing,
+            "SUSPENDED" | "S" => SlurmState::Suspended,
+            "COMPLETED" | "CD" => SlurmState::Completed,
+            "FAILED" | "F" => SlurmState::Failed,
+            "TIMEOUT" | "TO" => SlurmState::Timeout,
+            "CANCELLED" | "CA" => SlurmState::Cancelled,
+            "NODE_FAIL" | "NF" => SlurmState::NodeFail,
+            "PREEMPTED" | "PR" => SlurmState::Preempted,
+            "OUT_OF_MEMORY" | "OOM" => SlurmState::OutOfMemory,
+            "BOOT_FAIL" | "BF" => SlurmState::BootFail,
+            "DEADLINE" | "DL" => SlurmState::Deadline,
+            other => SlurmState::Other(other.to_string()),
+        }
+    }
+
+    /// True once Slurm will not run the job again by itself.
+    pub fn is_final(&self) -> bool {
+        !matches!(
+            self,
+            SlurmState::Pending
+                | SlurmState::Running
+                | SlurmState::Completing
+                | SlurmState::Suspended
+                | SlurmState::Other(_)
+        )
+    }
+
+    /// Slurm's long name.
+    pub fn name(&self) -> &str {
+        match self {
+            SlurmState::Pending => "PENDING",
+            SlurmState::Running => "RUNNING",
+            SlurmState::Completing => "COMPLETING",
+            SlurmState::Suspended => "SUSPENDED",
+            SlurmState::Completed => "COMPLETED",
+            SlurmState::Failed => "FAILED",
+            SlurmState::Timeout => "TIMEOUT",
+            SlurmState::Cancelled => "CANCELLED",
+            SlurmState::NodeFail => "NODE_FAIL",
+            SlurmState::Preempted => "PREEMPTED",
+            SlurmState::OutOfMemory => "OUT_OF_MEMORY",
+            SlurmState::BootFail => "BOOT_FAIL",
+            SlurmState::Deadline => "DEADLINE",
+            SlurmState::Other(name) => name,
+        }
+    }
+}
+
+impl SlurmJob {
+    /// What `orch status` shows: `RUNNING on n1`, `PENDING (Priority)`, `TIMEOUT
+    /// (TimeLimit) on n2`.
+    pub fn describe(&self) -> String {
+        let mut text = self.state.name().to_string();
+        if !self.reason.is_empty() && self.reason != "None" {
+            text.push_str(&format!(" ({})", self.reason));
+        }
+        if !self.nodes.is_empty() {
+            text.push_str(&format!(" on {}", self.nodes));
+        }
+        text
+    }
+}
+
+/// Output a Slurm command printed that orch cannot read.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("cannot read the output of `{command}`: {problem}")]
+pub struct ParseError {
+    /// The command.
+    pub command: &'static str,
+    /// What was wrong.
+    pub problem: String,
+}
+
+/// The job id `sbatch --parsable` printed: `123`, or `123;cluster` on a federation.
+pub fn parse_sbatch_output(stdout: &str) -> Result<u64, ParseError> {
+    let line = stdout.lines().map(str::trim).find(|l| !l.is_empty());
+    let id = line.and_then(|l| l.split(';').next()).unwrap_or("");
+    id.parse().map_err(|_| ParseError {
+        command: "sbatch --parsable",
+        problem: format!("expected a job id, got {:?}", stdout.trim()),
+    })
+}
+
+/// The jobs of `squeue --json` (every job slurmctld still holds, any user).
+pub fn parse_squeue_json(text: &str) -> Result<Vec<SlurmJob>, ParseError> {
+    let problem = |problem: String| ParseError {
+        command: "squeue --json",
+        problem,
+    };
+    let value: Value = serde_json::from_str(text).map_err(|e| problem(format!("not JSON: {e}")))?;
+    if let Some(error) = value["errors"].as_array().and_then(|errors| errors.first()) {
+        return Err(problem(format!("Slurm reported an error: {error}")));
+    }
+    let jobs = value["jobs"]
+        .as_array()
+        .ok_or_else(|| problem("no `jobs` array".to_string()))?;
+    jobs.iter()
+        .map(|job| {
+            let id = number(&job["job_id"])
+                .ok_or_else(|| problem(format!("a job without a numeric job_id: {job}")))?;
+            let state = match &job["job_state"] {
+                Value::String(name) => name.clone(),
+                // Later releases: a list of the base state and flags; the base comes first.
+                Value::Array(names) => names
+                    .first()
+                    .and_then(Value::as_str)
+                    .unwrap_or("")
+                    .to_string(),
+                _ => return Err(problem(format!("job {id} has no job_state"))),
+            };
+            Ok(SlurmJob {
+                id,
+                state: SlurmState::parse(&state),
+                reason: job["state_reason"].as_str().unwrap_or("").to_string(),
+                nodes: job["nodes"].as_str().unwrap_or("").to_string(),
+            })
+        })
+        .collect()
+}
+
+/// A number written plainly, or as later releases' `{"set": true, "number": N}`.
+fn number(value: &Value) -> Option<u64> {
+    value.as_u64().or_else(|| {
+        value["set"]
+            .as_bool()
+            .filter(|set| *set)
+            .and(value["number"].as_u64())
+    })
+}
+
+/// The jobs of `squeue --noheader --states=all --format=`[`SQUEUE_TEXT_FORMAT`].
+/// Array tasks (`123_4`) are skipped: orch submits no arrays.
+pub fn parse_squeue_text(text: &str) -> Result<Vec<SlurmJob>, ParseError> {
+    let mut jobs = Vec::new();
+    for line in text.lines().filter(|l| !l.trim().is_empty()) {
+        let fields: Vec<&str> = line.trim().split('|').collect();
+        let [id, state, reason, nodes] = fields[..] else {
+            return Err(ParseError {
+                command: "squeue --format",
+                problem: format!("expected 4 fields separated by |, got {line:?}"),
+            });
+        };
+        let Ok(id) = id.parse() else { continue };
+        jobs.push(SlurmJob {
+            id,
+            state: SlurmState::parse(state),
+            reason: reason.to_string(),
+            nodes: nodes.to_string(),
+        });
+    }
+    Ok(jobs)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `squeue --json` of Slurm 22.05.8 on this project's test cluster, cut to the fields
+    /// orch reads plus neighbours: a failed, a timed-out, a cancelled, a completed, a
+    /// running and a pending job.
+    const SQUEUE_22_05: &str = include_str!("testdata/squeue-22.05.json");
+
+    #[test]
+    fn squeue_json_of_slurm_22_05_gives_every_state_and_reason() {
+        let jobs = parse_squeue_json(SQUEUE_22_05).unwrap();
+        let described: Vec<(u64, String)> = jobs.iter().map(|j| (j.id, j.describe())).collect();
+        assert_eq!(
+            described,
+            vec![
+                (1, "FAILED (NonZeroExitCode) on n1".to_string()),
+                (3, "TIMEOUT (TimeLimit) on n1".to_string()),
+                (4, "CANCELLED on n2".to_string()),
+                (5, "COMPLETED on n2".to_string()),
+                (7, "RUNNING on n2".to_string()),
+                (8, "PENDING (Resources)".to_string()),
+            ]
+        );
+        assert!(jobs[..4].iter().all(|j| j.state.is_final()));
+        assert!(jobs[4..].iter().all(|j| !j.state.is_final()));
+    }
+
+    #[test]
+    fn squeue_json_of_later_releases_with_state_lists_and_set_numbers() {
+        let text = r#"{"jobs": [{"job_id": 42, "job_state": ["OUT_OF_MEMORY"],
+            "state_reason": "OutOfMemory", "nodes": "c3",
+            "exit_code": {"status": ["OUT_OF_MEMORY"], "return_code": {"set": true, "infinite": false, "number": 0}}},
+            {"job_id": {"set": true, "number": 43}, "job_state": ["PENDING", "REQUEUED"], "state_reason": "BeginTime", "nodes": ""}],
+            "errors": []}"#;
+        let jobs = parse_squeue_json(text).unwrap();
+        assert_eq!(jobs[0].state, SlurmState::OutOfMemory);
+        assert_eq!(jobs[1].id, 43);
+        assert_eq!(jobs[1].describe(), "PENDING (BeginTime)");
+    }
+
+    #[test]
+    fn squeue_errors_and_garbage_are_reported_not_taken_for_an_empty_queue() {
+        let error = parse_squeue_json(
+            r#"{"errors": [{"error": "Unable to contact slurm controller"}], "jobs": []}"#,
+        )
+        .unwrap_err();
+        assert!(
+            error
+                .to_string()
+                .contains("Unable to contact slurm controller"),
+            "{error}"
+        );
+        assert!(parse_squeue_json("squeue: error: unrecognized option '--json'").is_err());
+        assert!(parse_squeue_json(r#"{"jobs": [{"job_id": 1}]}"#).is_err());
+        assert!(parse_squeue_text("12|RUNNING|None").is_err());
+    }
+
+    #[test]
+    fn squeue_text_skips_array_tasks_and_blank_lines() {
+        let jobs = parse_squeue_text(
+            "12|RUNNING|None|n1\n\n13_[1-4]|PENDING|Priority|\n14|NODE_FAIL|NodeDown|n2\n",
+        )
+        .unwrap();
+        assert_eq!(jobs.len(), 2);
+        assert_eq!(jobs[1].state, SlurmState::NodeFail);
+        assert_eq!(jobs[1].describe(), "NODE_FAIL (NodeDown) on n2");
+    }
+
+    #[test]
+    fn sbatch_prints_an_id_or_an_id_and_cluster() {
+        assert_eq!(parse_sbatch_output("1234\n"), Ok(1234));
+        assert_eq!(parse_sbatch_output("1234;orch\n"), Ok(1234));
+        assert!(parse_sbatch_output("sbatch: error: Batch job submission failed").is_err());
+        assert!(parse_sbatch_output("").is_err());
+    }
+
+    #[test]
+    fn every_state_name_reads_back() {
+        for name in [
+            "PENDING",
+            "RUNNING",
+            "COMPLETING",
+            "SUSPENDED",
+            "COMPLETED",
+            "FAILED",
+            "TIMEOUT",
+            "CANCELLED",
+            "NODE_FAIL",
+            "PREEMPTED",
+            "OUT_OF_MEMORY",
+            "BOOT_FAIL",
+            "DEADLINE",
+            "CONFIGURING",
+        ] {
+            assert_eq!(SlurmState::parse(name).name(), name);
+        }
+        assert_eq!(SlurmState::parse("R"), SlurmState::Running);
+    }
+}

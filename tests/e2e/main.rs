@@ -11,5 +11,6 @@ mod faults;
 mod native;
 mod real_liggghts;
 mod rounds;
+mod slurm;
 mod study_files;
 mod support;

@@ -101,6 +101,8 @@ pub fn solver_lock() -> MutexGuard<'static, ()> {
 pub struct Project {
     /// Holds study files and templates.
     pub dir: tempfile::TempDir,
+    /// Extra environment of every `orch` it runs (`SLURM_CONF`, `PATH`).
+    pub env: Vec<(String, std::ffi::OsString)>,
 }
 
 impl Project {
@@ -108,7 +110,17 @@ impl Project {
     pub fn new() -> Project {
         Project {
             dir: tempfile::tempdir().unwrap(),
+            env: Vec::new(),
         }
+    }
+
+    /// A fresh project whose `orch` talks to the Slurm cluster of `slurm_conf`.
+    pub fn on_slurm(slurm_conf: &Path) -> Project {
+        let mut project = Project::new();
+        project
+            .env
+            .push(("SLURM_CONF".into(), slurm_conf.as_os_str().to_owned()));
+        project
     }
 
     /// The project directory `orch` uses.
@@ -130,6 +142,7 @@ impl Project {
             .arg("--project-dir")
             .arg(self.project_dir())
             .args(args)
+            .envs(self.env.iter().map(|(k, v)| (k, v)))
             .current_dir(self.dir.path());
         command
     }
@@ -232,4 +245,36 @@ pub fn beverloo(outlet_diameter_m: f64) -> f64 {
         0.58,
         1.5,
     )
+}
+
+/// The `slurm.conf` of the test cluster `scripts/slurm up` starts (once per test
+/// process; it is left running). None when Slurm cannot be had and CI is not set;
+/// under CI=true a cluster that does not come up is a failure, not a skip.
+pub fn require_slurm() -> Option<PathBuf> {
+    static CLUSTER: std::sync::OnceLock<Result<PathBuf, String>> = std::sync::OnceLock::new();
+    let cluster = CLUSTER.get_or_init(|| {
+        let output = Command::new(root().join("scripts/slurm"))
+            .arg("up")
+            .output()
+            .map_err(|e| format!("cannot run scripts/slurm: {e}"))?;
+        if !output.status.success() {
+            return Err(text(&output.stderr));
+        }
+        let conf = Command::new(root().join("scripts/slurm"))
+            .arg("conf")
+            .output()
+            .map_err(|e| e.to_string())?;
+        Ok(PathBuf::from(text(&conf.stdout).trim()))
+    });
+    match cluster {
+        Ok(conf) => Some(conf.clone()),
+        Err(why) => {
+            assert!(
+                std::env::var("CI").as_deref() != Ok("true"),
+                "Slurm did not come up but CI=true: scripts/slurm up said:\n{why}"
+            );
+            eprintln!("SKIPPED: no Slurm test cluster (scripts/slurm up said: {why}); this test did not run");
+            None
+        }
+    }
 }

@@ -1,0 +1,288 @@
+//! Studies on a real Slurm cluster (slurmctld + two slurmd + munge, started by
+//! `scripts/slurm up`), running the native kernel: the same responses as the local
+//! executor, Slurm's reasons for failed, timed-out and scancelled jobs, and `kill -9`
+//! of orch with ten jobs on the cluster followed by `orch resume`, which re-attaches
+//! without submitting anything twice.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::Duration;
+
+use serde_json::Value;
+
+use crate::support::{count, require_slurm, root, solver_lock, text, Project};
+
+/// A 9-point face-centred CCD of short native runs (1000 particles, ~3 s each).
+fn nine_point_study(name: &str, executor: &str) -> String {
+    format!(
+        "name: {name}\n\
+         solver: native\n\
+         executor: {executor}\n\
+         factors:\n  - {{name: outlet_diameter, min: 0.020, max: 0.028, unit: m}}\n  - {{name: amplitude, min: 0.0, max: 0.0008, unit: m}}\n\
+         fixed: {{frequency: 50, n_particles: 1000, fill_time: 0.2, discharge_time: 0.6}}\n\
+         design: {{type: central_composite, alpha: face_centred, center_points: 1}}\n\
+         seed: 7\n\
+         responses: [discharge_rate, segregation_ratio]\n"
+    )
+}
+
+/// Responses of every job, by job name.
+fn responses(status: &Value) -> BTreeMap<String, BTreeMap<String, f64>> {
+    status["jobs"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|job| {
+            let values = job["responses"]
+                .as_object()
+                .unwrap()
+                .iter()
+                .filter(|(name, _)| !name.starts_with("solver_"))
+                .map(|(name, v)| (name.clone(), v.as_f64().unwrap()))
+                .collect();
+            (job["name"].as_str().unwrap().to_string(), values)
+        })
+        .collect()
+}
+
+/// The job of `name` in a status JSON.
+fn job<'a>(status: &'a Value, name: &str) -> &'a Value {
+    status["jobs"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|j| j["name"] == name)
+        .unwrap_or_else(|| panic!("no job {name} in {status:#}"))
+}
+
+#[test]
+fn a_nine_point_study_on_slurm_equals_the_same_study_run_locally() {
+    let Some(conf) = require_slurm() else { return };
+    let _lock = solver_lock();
+    let slurm = Project::on_slurm(&conf);
+    let file = slurm.write(
+        "ccd.yaml",
+        &nine_point_study("ccd", "{kind: slurm, poll_interval: 1s, time_limit: 5min}"),
+    );
+    let output = slurm.run(&["submit", file.to_str().unwrap()]);
+    assert_eq!(output.status.code(), Some(0), "{}", text(&output.stderr));
+    let on_slurm = slurm.status("ccd");
+    assert_eq!(count(&on_slurm, "succeeded"), 9, "{on_slurm:#}");
+
+    let local = Project::new();
+    let file = local.write(
+        "ccd.yaml",
+        &nine_point_study("ccd", "{max_parallel: 2, time_limit: 5min}"),
+    );
+    let output = local.run(&["submit", file.to_str().unwrap()]);
+    assert_eq!(output.status.code(), Some(0), "{}", text(&output.stderr));
+    let here = local.status("ccd");
+
+    // Same seeds, same cases, a deterministic kernel: the same numbers, point by point.
+    let (slurm_responses, local_responses) = (responses(&on_slurm), responses(&here));
+    assert_eq!(slurm_responses.len(), 9);
+    assert_eq!(slurm_responses, local_responses);
+
+    // Every job ran as a Slurm batch job and recorded its end in its run directory.
+    for job in on_slurm["jobs"].as_array().unwrap() {
+        let handle = job["handle"].as_str().unwrap();
+        assert!(handle.starts_with("slurm:"), "{job}");
+        let scheduler = job["scheduler_state"].as_str().unwrap_or("");
+        assert!(
+            scheduler.starts_with("COMPLETED") || scheduler.starts_with("COMPLETING"),
+            "{job}"
+        );
+        let run_dir = PathBuf::from(job["run_dir"].as_str().unwrap());
+        let attempts = std::fs::read_to_string(run_dir.join("orch-attempts.log")).unwrap();
+        assert!(
+            attempts.starts_with(&format!("start {handle} ")),
+            "{attempts}"
+        );
+        assert!(run_dir.join("orch-job.sbatch").is_file());
+    }
+}
+
+/// Three points keyed on the fill time: 0.05 s runs with a time step that makes the
+/// kernel go unstable (exit 1); 50 s and 100 s of filling run far past the 1-minute
+/// limit. The test scancels the third itself.
+const FAULTS: &str = "\
+name: slurm-faults
+solver: native
+template: faulty.toml.tera
+executor: {kind: slurm, time_limit: 1min, retries: 0, poll_interval: 1s}
+factors:
+  - {name: fill_time, min: 0.05, max: 100, unit: s}
+fixed: {n_particles: 400, discharge_time: 0.1}
+design: {type: full_factorial, levels: 3}
+seed: 3
+";
+
+fn faulty_native_template() -> String {
+    let template =
+        std::fs::read_to_string(root().join("templates/native/hopper.toml.tera")).unwrap();
+    let line = "timestep = {{ timestep }}";
+    assert!(template.contains(line));
+    template.replace(
+        line,
+        "timestep = {% if fill_time < 1 %}0.0008{% else %}{{ timestep }}{% endif %}",
+    )
+}
+
+#[test]
+fn failed_timed_out_and_scancelled_slurm_jobs_end_with_slurms_reason() {
+    let Some(conf) = require_slurm() else { return };
+    let project = Project::on_slurm(&conf);
+    project.write("faulty.toml.tera", &faulty_native_template());
+    let file = project.write("faults.yaml", FAULTS);
+    let orch = project
+        .orch(&["submit", file.to_str().unwrap()])
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Cancel the third job on the cluster, behind orch's back, once Slurm runs it.
+    let running = project.wait_for("slurm-faults", Duration::from_secs(120), |s| {
+        job(s, "p002r0")["state"] == "running"
+    });
+    let handle = job(&running, "p002r0")["handle"].as_str().unwrap().to_string();
+    let id = handle.strip_prefix("slurm:").unwrap();
+    let scancel = Command::new("scancel")
+        .arg(id)
+        .env("SLURM_CONF", &conf)
+        .status()
+        .unwrap();
+    assert!(scancel.success());
+
+    let output = orch.wait_with_output().unwrap();
+    let stderr = text(&output.stderr);
+    assert_eq!(output.status.code(), Some(1), "{stderr}");
+    let status = project.status("slurm-faults");
+
+    let unstable = job(&status, "p000r0");
+    assert_eq!(unstable["state"], "failed", "{unstable:#}");
+    assert_eq!(unstable["exit_code"], 1);
+    let error = unstable["error"].as_str().unwrap();
+    assert!(error.contains("went unstable at step"), "{error}");
+
+    let timed_out = job(&status, "p001r0");
+    assert_eq!(timed_out["state"], "failed", "{timed_out:#}");
+    let error = timed_out["error"].as_str().unwrap();
+    assert!(
+        error.contains("was stopped at its time limit: TIMEOUT (TimeLimit) on n"),
+        "{error}"
+    );
+
+    let cancelled = job(&status, "p002r0");
+    assert_eq!(cancelled["state"], "cancelled", "{cancelled:#}");
+    let error = cancelled["error"].as_str().unwrap();
+    assert!(
+        error.starts_with(&format!(
+            "Slurm job {id} was cancelled outside orch: CANCELLED"
+        )),
+        "{error}"
+    );
+    assert!(error.ends_with("`orch resume slurm-faults` runs it again"));
+
+    // The table shows Slurm's view too.
+    let table = text(&project.run(&["status", "slurm-faults"]).stdout);
+    assert!(table.contains("SCHEDULER"), "{table}");
+    assert!(table.contains("TIMEOUT (TimeLimit)"), "{table}");
+    assert!(table.contains(&format!("slurm:{id}")), "{table}");
+}
+
+/// Ten native runs (5 points × 2 replicates), all submitted at once.
+const TEN: &str = "\
+name: ten
+solver: native
+executor: {kind: slurm, poll_interval: 1s, time_limit: 5min}
+factors:
+  - {name: outlet_diameter, min: 0.020, max: 0.028, unit: m}
+fixed: {n_particles: 1000, fill_time: 0.2, discharge_time: 0.6}
+design: {type: full_factorial, levels: 5}
+replicates: 2
+seed: 11
+";
+
+/// A directory with an `sbatch` that counts its calls in `calls`, then runs Slurm's.
+fn counting_sbatch(dir: &Path) -> PathBuf {
+    let real = Command::new("sh")
+        .args(["-c", "command -v sbatch"])
+        .output()
+        .unwrap();
+    let real = text(&real.stdout).trim().to_string();
+    assert!(!real.is_empty(), "no sbatch on PATH");
+    let bin = dir.join("bin");
+    std::fs::create_dir_all(&bin).unwrap();
+    let calls = dir.join("sbatch-calls");
+    let wrapper = bin.join("sbatch");
+    std::fs::write(
+        &wrapper,
+        format!(
+            "#!/bin/sh\necho \"$PWD\" >> '{}'\nexec '{real}' \"$@\"\n",
+            calls.display()
+        ),
+    )
+    .unwrap();
+    use std::os::unix::fs::PermissionsExt;
+    std::fs::set_permissions(&wrapper, std::fs::Permissions::from_mode(0o755)).unwrap();
+    bin
+}
+
+#[test]
+fn sigkill_with_ten_jobs_on_slurm_then_resume_reattaches_and_submits_nothing_twice() {
+    let Some(conf) = require_slurm() else { return };
+    let _lock = solver_lock();
+    let mut project = Project::on_slurm(&conf);
+    let bin = counting_sbatch(project.dir.path());
+    let path = std::env::join_paths(
+        std::iter::once(bin).chain(std::env::split_paths(&std::env::var_os("PATH").unwrap())),
+    )
+    .unwrap();
+    project.env.push(("PATH".into(), path));
+    let file = project.write("ten.yaml", TEN);
+    let mut orch = project
+        .orch(&["submit", file.to_str().unwrap()])
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let submitted = |s: &Value| {
+        s["jobs"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter(|j| j["state"] == "submitted" || j["state"] == "running")
+            .count()
+    };
+    let before = project.wait_for("ten", Duration::from_secs(60), |s| submitted(s) == 10);
+    orch.kill().unwrap();
+    orch.wait().unwrap();
+    let handles: BTreeMap<String, String> = before["jobs"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|j| {
+            (
+                j["name"].as_str().unwrap().to_string(),
+                j["handle"].as_str().unwrap().to_string(),
+            )
+        })
+        .collect();
+    eprintln!("killed orch with 10 jobs on Slurm: {handles:?}");
+
+    let output = project.run(&["resume", "ten"]);
+    assert_eq!(output.status.code(), Some(0), "{}", text(&output.stderr));
+    let status = project.status("ten");
+    assert_eq!(count(&status, "succeeded"), 10, "{status:#}");
+
+    // Ten sbatch calls in all, and every job kept the Slurm job it had before the kill.
+    let calls = std::fs::read_to_string(project.dir.path().join("sbatch-calls")).unwrap();
+    assert_eq!(calls.lines().count(), 10, "{calls}");
+    for job in status["jobs"].as_array().unwrap() {
+        let name = job["name"].as_str().unwrap();
+        assert_eq!(job["handle"].as_str().unwrap(), handles[name], "{job}");
+        assert_eq!(job["attempts"], 1, "{job}");
+        let run_dir = PathBuf::from(job["run_dir"].as_str().unwrap());
+        let log = std::fs::read_to_string(run_dir.join("orch-attempts.log")).unwrap();
+        assert_eq!(log.lines().filter(|l| l.starts_with("end 0 ")).count(), 1, "{log}");
+    }
+}

@@ -81,6 +81,28 @@ fn a_missing_solver_is_refused_before_anything_is_written() {
 }
 
 #[test]
+fn a_slurm_study_without_slurm_commands_is_refused_before_anything_is_written() {
+    let project = Project::new();
+    let file = project.write(
+        "study.yaml",
+        &GOOD.replace("solver: liggghts", "solver: native\nexecutor: {kind: slurm}"),
+    );
+    let output = project
+        .orch(&["submit", file.to_str().unwrap()])
+        .env("PATH", project.dir.path())
+        .output()
+        .unwrap();
+    let stderr = text(&output.stderr);
+    assert_eq!(output.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("the study runs on Slurm but `sbatch` is not on PATH"),
+        "{stderr}"
+    );
+    assert!(stderr.contains("scripts/slurm up"), "{stderr}");
+    assert!(!project.project_dir().exists());
+}
+
+#[test]
 fn dry_run_prints_the_design_and_writes_nothing() {
     let project = Project::new();
     let file = project.write("study.yaml", GOOD);

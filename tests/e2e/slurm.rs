@@ -6,12 +6,12 @@
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
+use std::process::Command;
 use std::time::Duration;
 
 use serde_json::Value;
 
-use crate::support::{count, require_slurm, root, solver_lock, text, Project};
+use crate::support::{count, require_slurm, root, slurm_lock, solver_lock, text, Project};
 
 /// A 9-point face-centred CCD of short native runs (1000 particles, ~3 s each).
 fn nine_point_study(name: &str, executor: &str) -> String {
@@ -56,9 +56,64 @@ fn job<'a>(status: &'a Value, name: &str) -> &'a Value {
         .unwrap_or_else(|| panic!("no job {name} in {status:#}"))
 }
 
+/// `orch ARGS` started in the background, its stderr kept in the project directory.
+struct Background {
+    child: std::process::Child,
+    stderr: PathBuf,
+}
+
+impl Background {
+    fn start(project: &Project, args: &[&str]) -> Background {
+        let stderr = project.dir.path().join("orch-stderr.txt");
+        let child = project
+            .orch(args)
+            .stderr(std::fs::File::create(&stderr).unwrap())
+            .spawn()
+            .unwrap();
+        Background { child, stderr }
+    }
+
+    fn stderr(&self) -> String {
+        std::fs::read_to_string(&self.stderr).unwrap_or_default()
+    }
+
+    /// Polls `orch status STUDY --json` until `done` holds; fails with orch's stderr
+    /// if orch ends first or `limit` passes.
+    fn wait_for(
+        &mut self,
+        project: &Project,
+        study: &str,
+        limit: Duration,
+        done: impl Fn(&Value) -> bool,
+    ) -> Value {
+        let deadline = std::time::Instant::now() + limit;
+        loop {
+            let output = project.run(&["status", study, "--json"]);
+            let status: Option<Value> = serde_json::from_slice(&output.stdout).ok();
+            if let Some(status) = status.as_ref().filter(|s| done(s)) {
+                return status.clone();
+            }
+            if let Some(code) = self.child.try_wait().unwrap() {
+                panic!(
+                    "orch ended ({code}) first; stderr:\n{}\nstatus: {status:#?}",
+                    self.stderr()
+                );
+            }
+            if std::time::Instant::now() > deadline {
+                panic!(
+                    "gave up after {limit:?}; orch's stderr:\n{}\nstatus: {status:#?}",
+                    self.stderr()
+                );
+            }
+            std::thread::sleep(Duration::from_millis(200));
+        }
+    }
+}
+
 #[test]
 fn a_nine_point_study_on_slurm_equals_the_same_study_run_locally() {
     let Some(conf) = require_slurm() else { return };
+    let _cluster = slurm_lock();
     let _lock = solver_lock();
     let slurm = Project::on_slurm(&conf);
     let file = slurm.write(
@@ -132,19 +187,19 @@ fn faulty_native_template() -> String {
 #[test]
 fn failed_timed_out_and_scancelled_slurm_jobs_end_with_slurms_reason() {
     let Some(conf) = require_slurm() else { return };
+    let _cluster = slurm_lock();
     let project = Project::on_slurm(&conf);
     project.write("faulty.toml.tera", &faulty_native_template());
     let file = project.write("faults.yaml", FAULTS);
-    let orch = project
-        .orch(&["submit", file.to_str().unwrap()])
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
+    let mut orch = Background::start(&project, &["submit", file.to_str().unwrap()]);
     // Cancel the third job on the cluster, behind orch's back, once Slurm runs it.
-    let running = project.wait_for("slurm-faults", Duration::from_secs(120), |s| {
+    let running = orch.wait_for(&project, "slurm-faults", Duration::from_secs(120), |s| {
         job(s, "p002r0")["state"] == "running"
     });
-    let handle = job(&running, "p002r0")["handle"].as_str().unwrap().to_string();
+    let handle = job(&running, "p002r0")["handle"]
+        .as_str()
+        .unwrap()
+        .to_string();
     let id = handle.strip_prefix("slurm:").unwrap();
     let scancel = Command::new("scancel")
         .arg(id)
@@ -153,9 +208,8 @@ fn failed_timed_out_and_scancelled_slurm_jobs_end_with_slurms_reason() {
         .unwrap();
     assert!(scancel.success());
 
-    let output = orch.wait_with_output().unwrap();
-    let stderr = text(&output.stderr);
-    assert_eq!(output.status.code(), Some(1), "{stderr}");
+    let exit = orch.child.wait().unwrap();
+    assert_eq!(exit.code(), Some(1), "{}", orch.stderr());
     let status = project.status("slurm-faults");
 
     let unstable = job(&status, "p000r0");
@@ -231,6 +285,7 @@ fn counting_sbatch(dir: &Path) -> PathBuf {
 #[test]
 fn sigkill_with_ten_jobs_on_slurm_then_resume_reattaches_and_submits_nothing_twice() {
     let Some(conf) = require_slurm() else { return };
+    let _cluster = slurm_lock();
     let _lock = solver_lock();
     let mut project = Project::on_slurm(&conf);
     let bin = counting_sbatch(project.dir.path());
@@ -240,11 +295,7 @@ fn sigkill_with_ten_jobs_on_slurm_then_resume_reattaches_and_submits_nothing_twi
     .unwrap();
     project.env.push(("PATH".into(), path));
     let file = project.write("ten.yaml", TEN);
-    let mut orch = project
-        .orch(&["submit", file.to_str().unwrap()])
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
+    let mut orch = Background::start(&project, &["submit", file.to_str().unwrap()]);
     let submitted = |s: &Value| {
         s["jobs"]
             .as_array()
@@ -253,9 +304,11 @@ fn sigkill_with_ten_jobs_on_slurm_then_resume_reattaches_and_submits_nothing_twi
             .filter(|j| j["state"] == "submitted" || j["state"] == "running")
             .count()
     };
-    let before = project.wait_for("ten", Duration::from_secs(60), |s| submitted(s) == 10);
-    orch.kill().unwrap();
-    orch.wait().unwrap();
+    let before = orch.wait_for(&project, "ten", Duration::from_secs(60), |s| {
+        submitted(s) == 10
+    });
+    orch.child.kill().unwrap();
+    orch.child.wait().unwrap();
     let handles: BTreeMap<String, String> = before["jobs"]
         .as_array()
         .unwrap()
@@ -283,6 +336,134 @@ fn sigkill_with_ten_jobs_on_slurm_then_resume_reattaches_and_submits_nothing_twi
         assert_eq!(job["attempts"], 1, "{job}");
         let run_dir = PathBuf::from(job["run_dir"].as_str().unwrap());
         let log = std::fs::read_to_string(run_dir.join("orch-attempts.log")).unwrap();
-        assert_eq!(log.lines().filter(|l| l.starts_with("end 0 ")).count(), 1, "{log}");
+        assert_eq!(
+            log.lines().filter(|l| l.starts_with("end 0 ")).count(),
+            1,
+            "{log}"
+        );
+    }
+}
+
+/// Runs `scontrol ARGS` on the test cluster.
+fn scontrol(conf: &Path, args: &[&str]) {
+    let status = Command::new("scontrol")
+        .args(args)
+        .env("SLURM_CONF", conf)
+        .status()
+        .unwrap();
+    assert!(status.success(), "scontrol {args:?} failed");
+}
+
+/// Brings a node taken down by a test back, however the test ends.
+struct NodeBack<'a> {
+    conf: &'a Path,
+    node: String,
+}
+
+impl Drop for NodeBack<'_> {
+    fn drop(&mut self) {
+        // With ReturnToService=2 the node may be back already; then this is refused.
+        let _ = Command::new("scontrol")
+            .args(["update", &format!("nodename={}", self.node), "state=resume"])
+            .env("SLURM_CONF", self.conf)
+            .status();
+    }
+}
+
+/// Two long native runs (100 s of filling), one retry each.
+const LONG: &str = "\
+name: node-fail
+solver: native
+executor: {kind: slurm, time_limit: 5min, retries: 1, poll_interval: 1s}
+factors:
+  - {name: outlet_diameter, min: 0.020, max: 0.028, unit: m}
+fixed: {n_particles: 400, fill_time: 100, discharge_time: 0.1}
+design: {type: full_factorial, levels: 2}
+seed: 5
+";
+
+#[test]
+fn a_job_whose_node_fails_runs_again_and_orch_cancel_scancels_everything() {
+    let Some(conf) = require_slurm() else { return };
+    let _cluster = slurm_lock();
+    let project = Project::on_slurm(&conf);
+    let file = project.write("long.yaml", LONG);
+    let mut orch = Background::start(&project, &["submit", file.to_str().unwrap()]);
+    let running = orch.wait_for(&project, "node-fail", Duration::from_secs(60), |s| {
+        count(s, "running") == 2
+    });
+    let first = job(&running, "p000r0");
+    let first_handle = first["handle"].as_str().unwrap().to_string();
+    // "RUNNING on n1": take that node down under the job.
+    let node = first["scheduler_state"]
+        .as_str()
+        .unwrap()
+        .rsplit(' ')
+        .next()
+        .unwrap()
+        .to_string();
+    let _back = NodeBack {
+        conf: &conf,
+        node: node.clone(),
+    };
+    let down = format!("nodename={node}");
+    scontrol(
+        &conf,
+        &["update", &down, "state=down", "reason=orch-e2e-test"],
+    );
+
+    // The attempt fails with NODE_FAIL and orch submits a second one.
+    let retried = orch.wait_for(&project, "node-fail", Duration::from_secs(60), |s| {
+        job(s, "p000r0")["attempts"] == 2
+    });
+    let second_handle = job(&retried, "p000r0")["handle"]
+        .as_str()
+        .unwrap()
+        .to_string();
+    assert_ne!(second_handle, first_handle);
+    let notes = project.query(
+        "SELECT e.note FROM job_events e JOIN jobs j ON j.id = e.job_id WHERE j.name = 'p000r0' AND e.to_state = 'pending'",
+    );
+    let note = &notes[0][0];
+    assert!(
+        note.starts_with("attempt 1 of 2 failed: Slurm job ")
+            && note.contains(" lost its node: NODE_FAIL"),
+        "{note}"
+    );
+
+    // orch cancel stops both jobs on the cluster with one scancel.
+    let output = project.run(&["cancel", "node-fail"]);
+    assert!(output.status.success(), "{}", text(&output.stderr));
+    assert!(text(&output.stderr).contains("2 Slurm jobs cancelled with scancel"));
+    let exit = orch.child.wait().unwrap();
+    assert_ne!(exit.code(), Some(0), "{}", orch.stderr());
+    let status = project.status("node-fail");
+    assert_eq!(count(&status, "cancelled"), 2, "{status:#}");
+    let ids: Vec<String> = status["jobs"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|j| {
+            j["handle"]
+                .as_str()
+                .unwrap()
+                .trim_start_matches("slurm:")
+                .to_string()
+        })
+        .collect();
+    let squeue = Command::new("squeue")
+        .args([
+            "--noheader",
+            "--states=all",
+            "--format=%i %T",
+            "--jobs",
+            &ids.join(","),
+        ])
+        .env("SLURM_CONF", &conf)
+        .output()
+        .unwrap();
+    let states = text(&squeue.stdout);
+    for id in &ids {
+        assert!(states.contains(&format!("{id} CANCELLED")), "{states}");
     }
 }

@@ -85,7 +85,10 @@ fn a_slurm_study_without_slurm_commands_is_refused_before_anything_is_written() 
     let project = Project::new();
     let file = project.write(
         "study.yaml",
-        &GOOD.replace("solver: liggghts", "solver: native\nexecutor: {kind: slurm}"),
+        &GOOD.replace(
+            "solver: liggghts",
+            "solver: native\nexecutor: {kind: slurm}",
+        ),
     );
     let output = project
         .orch(&["submit", file.to_str().unwrap()])

@@ -97,6 +97,15 @@ pub fn solver_lock() -> MutexGuard<'static, ()> {
         .unwrap_or_else(|poisoned| poisoned.into_inner())
 }
 
+static SLURM_LOCK: Mutex<()> = Mutex::new(());
+
+/// Serialises tests that use the Slurm test cluster: one of them takes a node down.
+pub fn slurm_lock() -> MutexGuard<'static, ()> {
+    SLURM_LOCK
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner())
+}
+
 /// A temporary project directory and the files of one test.
 pub struct Project {
     /// Holds study files and templates.

@@ -168,6 +168,9 @@ pub fn report_of(id: u64, job: Option<&SlurmJob>, recorded_exit: Option<i32>) ->
         }
         SlurmState::Completed | SlurmState::Failed => match recorded_exit {
             Some(code) => JobStatus::Exited(code),
+            // The script exited 0, so it wrote its exit status: a shared file system
+            // has not shown it here yet. Ask again.
+            None if job.state == SlurmState::Completed => JobStatus::Running,
             None => stopped(
                 StopCause::Other,
                 &format!("ended without recording an exit status (its batch script failed; see slurm-{id}.out)"),
@@ -341,6 +344,8 @@ mod tests {
         );
         assert_eq!(status("COMPLETING", "None", Some(1)), JobStatus::Exited(1));
         assert_eq!(status("COMPLETING", "None", None), JobStatus::Running);
+        // Exit 0 means the status was written; it is not visible here yet (NFS).
+        assert_eq!(status("COMPLETED", "None", None), JobStatus::Running);
         let unrecorded = status("FAILED", "NonZeroExitCode", None);
         assert_eq!(cause(unrecorded.clone()), Some(StopCause::Other));
         assert!(format!("{unrecorded:?}").contains("slurm-7.out"));

@@ -58,25 +58,34 @@ pub enum SlurmState {
     Other(String),
 }
 
+/// Slurm's long state names and short codes, one row per state orch names.
+const STATE_NAMES: [(&str, &str, SlurmState); 13] = [
+    ("PENDING", "PD", SlurmState::Pending),
+    ("RUNNING", "R", SlurmState::Running),
+    ("COMPLETING", "CG", SlurmState::Completing),
+    ("SUSPENDED", "S", SlurmState::Suspended),
+    ("COMPLETED", "CD", SlurmState::Completed),
+    ("FAILED", "F", SlurmState::Failed),
+    ("TIMEOUT", "TO", SlurmState::Timeout),
+    ("CANCELLED", "CA", SlurmState::Cancelled),
+    ("NODE_FAIL", "NF", SlurmState::NodeFail),
+    ("PREEMPTED", "PR", SlurmState::Preempted),
+    ("OUT_OF_MEMORY", "OOM", SlurmState::OutOfMemory),
+    ("BOOT_FAIL", "BF", SlurmState::BootFail),
+    ("DEADLINE", "DL", SlurmState::Deadline),
+];
+
 impl SlurmState {
     /// Reads Slurm's long state name (`RUNNING`) or short code (`R`).
     pub fn parse(text: &str) -> SlurmState {
-        match text.trim() {
-            "PENDING" | "PD" => SlurmState::Pending,
-            "RUNNING" | "R" => SlurmState::Running,
-            "COMPLETING" | "CG" => SlurmState::Completing,
-            "SUSPENDED" | "S" => SlurmState::Suspended,
-            "COMPLETED" | "CD" => SlurmState::Completed,
-            "FAILED" | "F" => SlurmState::Failed,
-            "TIMEOUT" | "TO" => SlurmState::Timeout,
-            "CANCELLED" | "CA" => SlurmState::Cancelled,
-            "NODE_FAIL" | "NF" => SlurmState::NodeFail,
-            "PREEMPTED" | "PR" => SlurmState::Preempted,
-            "OUT_OF_MEMORY" | "OOM" => SlurmState::OutOfMemory,
-            "BOOT_FAIL" | "BF" => SlurmState::BootFail,
-            "DEADLINE" | "DL" => SlurmState::Deadline,
-            other => SlurmState::Other(other.to_string()),
-        }
+        let text = text.trim();
+        STATE_NAMES
+            .iter()
+            .find(|(long, short, _)| text == *long || text == *short)
+            .map_or_else(
+                || SlurmState::Other(text.to_string()),
+                |(_, _, state)| state.clone(),
+            )
     }
 
     /// True once Slurm will not run the job again by itself.
@@ -94,20 +103,11 @@ impl SlurmState {
     /// Slurm's long name.
     pub fn name(&self) -> &str {
         match self {
-            SlurmState::Pending => "PENDING",
-            SlurmState::Running => "RUNNING",
-            SlurmState::Completing => "COMPLETING",
-            SlurmState::Suspended => "SUSPENDED",
-            SlurmState::Completed => "COMPLETED",
-            SlurmState::Failed => "FAILED",
-            SlurmState::Timeout => "TIMEOUT",
-            SlurmState::Cancelled => "CANCELLED",
-            SlurmState::NodeFail => "NODE_FAIL",
-            SlurmState::Preempted => "PREEMPTED",
-            SlurmState::OutOfMemory => "OUT_OF_MEMORY",
-            SlurmState::BootFail => "BOOT_FAIL",
-            SlurmState::Deadline => "DEADLINE",
             SlurmState::Other(name) => name,
+            known => STATE_NAMES
+                .iter()
+                .find(|(_, _, state)| state == known)
+                .map_or("", |(long, _, _)| long),
         }
     }
 }

@@ -333,13 +333,7 @@ async fn show_status(
                 .parent()
                 .unwrap_or(Path::new("."))
                 .to_path_buf();
-            let responses = Study::from_text(
-                Path::new(&row.file_path),
-                &row.file_text,
-                Some(stored_template(&row)),
-            )
-            .map(|s| s.responses)
-            .unwrap_or_default();
+            let responses = stored_study(&row).map(|s| s.responses).unwrap_or_default();
             let detail = StudyDetail::load(&store, row).await?;
             if as_json {
                 println!("{}", serde_json::to_string_pretty(&detail.json(&project))?);
@@ -351,11 +345,13 @@ async fn show_status(
     Ok(exit_codes::SUCCESS)
 }
 
-fn stored_template(row: &StudyRow) -> Template {
-    Template {
+/// The study as it was submitted: its stored file text and template, validated again.
+fn stored_study(row: &StudyRow) -> Result<Study, StudyError> {
+    let template = Template {
         name: row.template_name.clone(),
         text: row.template_text.clone(),
-    }
+    };
+    Study::from_text(Path::new(&row.file_path), &row.file_text, Some(template))
 }
 
 async fn logs(project_dir: Option<&Path>, reference: &str, tail: usize) -> anyhow::Result<i32> {
@@ -470,13 +466,9 @@ async fn cancel(project_dir: Option<&Path>, name: &str) -> anyhow::Result<i32> {
         .iter()
         .filter_map(|job| job.executor_handle.as_deref())
         .collect();
-    let slurm = Study::from_text(
-        Path::new(&row.file_path),
-        &row.file_text,
-        Some(stored_template(&row)),
-    )
-    .ok()
-    .and_then(|study| study.executor.slurm);
+    let slurm = stored_study(&row)
+        .ok()
+        .and_then(|study| study.executor.slurm);
     let stopped = match slurm {
         Some(settings) => {
             // One scancel for all; Slurm ends them, the store records them cancelled.
@@ -523,12 +515,8 @@ async fn reopen(store: &Store, row: &StudyRow, retry_failed: bool) -> anyhow::Re
 
 async fn resume(project_dir: Option<&Path>, name: &str, retry_failed: bool) -> anyhow::Result<i32> {
     let (store, row) = find(project_dir, name).await?;
-    let study = Study::from_text(
-        Path::new(&row.file_path),
-        &row.file_text,
-        Some(stored_template(&row)),
-    )
-    .map_err(|e| input_error(format!("the stored study file no longer validates: {e}")))?;
+    let study = stored_study(&row)
+        .map_err(|e| input_error(format!("the stored study file no longer validates: {e}")))?;
     reopen(&store, &row, retry_failed).await?;
     if store
         .jobs(row.id)

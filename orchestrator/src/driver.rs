@@ -193,9 +193,8 @@ impl<E: Executor> Driver<'_, E> {
     /// executor still knows them (Slurm), else rendered again.
     async fn reconcile(&mut self) -> Result<(), DriverError> {
         for job in self.store.jobs(self.study_id).await? {
-            let unrecorded = job.state() == JobState::Rendered
-                || (job.state() == JobState::Submitted && job.executor_handle.is_none());
-            if !unrecorded {
+            // Submitted and running jobs always have a handle: they are polled.
+            if job.state() != JobState::Rendered {
                 continue;
             }
             match self
@@ -203,7 +202,7 @@ impl<E: Executor> Driver<'_, E> {
                 .recover_unrecorded(&self.spec_name(&job), Path::new(&job.run_dir))
                 .await
             {
-                Recovered::Attached(handle) if job.state() == JobState::Rendered => {
+                Recovered::Attached(handle) => {
                     tracing::warn!(job = %job.name, %handle, "re-attached to a job a stopped orch submitted before recording it");
                     self.store.mark_submitted(job.id, &handle).await?;
                     continue;

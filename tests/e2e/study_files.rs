@@ -24,6 +24,22 @@ fn refused(study: &str) -> String {
     text(&output.stderr)
 }
 
+/// Submits `study` with nothing on PATH and returns stderr, asserting exit code 2 and
+/// no project written.
+fn refused_with_empty_path(study: &str) -> String {
+    let project = Project::new();
+    let file = project.write("study.yaml", study);
+    let output = project
+        .orch(&["submit", file.to_str().unwrap()])
+        .env("PATH", project.dir.path())
+        .output()
+        .unwrap();
+    let stderr = text(&output.stderr);
+    assert_eq!(output.status.code(), Some(2), "{stderr}");
+    assert!(!project.project_dir().exists());
+    stderr
+}
+
 #[test]
 fn every_kind_of_bad_study_file_is_refused_before_anything_is_written() {
     let cases = [
@@ -63,46 +79,25 @@ fn every_kind_of_bad_study_file_is_refused_before_anything_is_written() {
 
 #[test]
 fn a_missing_solver_is_refused_before_anything_is_written() {
-    let project = Project::new();
-    let file = project.write("study.yaml", GOOD);
-    let output = project
-        .orch(&["submit", file.to_str().unwrap()])
-        .env("PATH", project.dir.path())
-        .output()
-        .unwrap();
-    let stderr = text(&output.stderr);
-    assert_eq!(output.status.code(), Some(2), "{stderr}");
+    let stderr = refused_with_empty_path(GOOD);
     assert!(
         stderr.contains("the liggghts solver `liggghts` is not installed"),
         "{stderr}"
     );
     assert!(stderr.contains("apt-get install -y liggghts"), "{stderr}");
-    assert!(!project.project_dir().exists());
 }
 
 #[test]
 fn a_slurm_study_without_slurm_commands_is_refused_before_anything_is_written() {
-    let project = Project::new();
-    let file = project.write(
-        "study.yaml",
-        &GOOD.replace(
-            "solver: liggghts",
-            "solver: native\nexecutor: {kind: slurm}",
-        ),
-    );
-    let output = project
-        .orch(&["submit", file.to_str().unwrap()])
-        .env("PATH", project.dir.path())
-        .output()
-        .unwrap();
-    let stderr = text(&output.stderr);
-    assert_eq!(output.status.code(), Some(2), "{stderr}");
+    let stderr = refused_with_empty_path(&GOOD.replace(
+        "solver: liggghts",
+        "solver: native\nexecutor: {kind: slurm}",
+    ));
     assert!(
         stderr.contains("the study runs on Slurm but `sbatch` is not on PATH"),
         "{stderr}"
     );
     assert!(stderr.contains("scripts/slurm up"), "{stderr}");
-    assert!(!project.project_dir().exists());
 }
 
 #[test]

@@ -451,19 +451,26 @@ fn a_job_whose_node_fails_runs_again_and_orch_cancel_scancels_everything() {
                 .to_string()
         })
         .collect();
-    let squeue = Command::new("squeue")
-        .args([
-            "--noheader",
-            "--states=all",
-            "--format=%i %T",
-            "--jobs",
-            &ids.join(","),
-        ])
-        .env("SLURM_CONF", &conf)
-        .output()
-        .unwrap();
-    let states = text(&squeue.stdout);
-    for id in &ids {
-        assert!(states.contains(&format!("{id} CANCELLED")), "{states}");
+    // A cancelled job shows COMPLETING until slurmd has killed its processes.
+    let deadline = std::time::Instant::now() + Duration::from_secs(60);
+    loop {
+        let squeue = Command::new("squeue")
+            .args([
+                "--noheader",
+                "--states=all",
+                "--format=%i %T",
+                "--jobs",
+                &ids.join(","),
+            ])
+            .env("SLURM_CONF", &conf)
+            .output()
+            .unwrap();
+        let states = text(&squeue.stdout);
+        let cancelled = |id: &String| states.contains(&format!("{id} CANCELLED"));
+        if ids.iter().all(cancelled) {
+            break;
+        }
+        assert!(std::time::Instant::now() < deadline, "{states}");
+        std::thread::sleep(Duration::from_millis(500));
     }
 }

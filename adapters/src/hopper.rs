@@ -195,6 +195,30 @@ pub static PARAMETERS: &[ParameterSpec] = &[
         "steps between sensor-band dumps",
     ),
     spec(
+        "shape_x1",
+        0.0,
+        "m",
+        -0.1,
+        0.1,
+        "cone profile: lower B-spline control point moved away from the axis (X1)",
+    ),
+    spec(
+        "shape_x2",
+        0.0,
+        "m",
+        -0.1,
+        0.1,
+        "cone profile: upper B-spline control point moved towards the axis (X2)",
+    ),
+    spec(
+        "shape_degree",
+        3.0,
+        "-",
+        2.0,
+        3.0,
+        "degree of the B-spline cone profile",
+    ),
+    spec(
         "mesh_segments",
         48.0,
         "-",
@@ -216,6 +240,9 @@ pub fn geometry(case: &Case) -> HopperGeometry {
         valve_height_m: case.get("valve_height"),
         segments: case.get("mesh_segments").round() as usize,
         band_height_m: 0.005,
+        shape_x1_m: case.get("shape_x1"),
+        shape_x2_m: case.get("shape_x2"),
+        shape_degree: case.get("shape_degree").round() as usize,
     }
 }
 

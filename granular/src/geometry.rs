@@ -3,9 +3,11 @@
 //! Coordinates: the hopper axis is the z axis, the outlet plane is `z = 0`, material
 //! flows in `−z`. The cone widens from the outlet radius at `z = 0` to the top radius at
 //! `z = cone_height_m`, above which a cylinder continues to `cone_height_m +
-//! cylinder_height_m`.
+//! cylinder_height_m`. The cone's wall is straight unless the shape offsets bend it
+//! into a B-spline ([`ConeProfile`]).
 
 use crate::mesh::TriMesh;
+use crate::profile::{ConeProfile, ProfileError};
 
 /// The shape of a conical hopper, all lengths in metres.
 #[derive(Debug, Clone, PartialEq)]
@@ -28,6 +30,13 @@ pub struct HopperGeometry {
     pub segments: usize,
     /// Height of one band of facets along the wall; small bands keep facets compact.
     pub band_height_m: f64,
+    /// Offset of the cone profile's lower control point away from the axis, m
+    /// (the thesis's X1; 0 with `shape_x2_m = 0` is the straight cone).
+    pub shape_x1_m: f64,
+    /// Offset of the cone profile's upper control point towards the axis, m (X2).
+    pub shape_x2_m: f64,
+    /// Degree of the B-spline profile, 2 or 3.
+    pub shape_degree: usize,
 }
 
 /// A hopper that cannot be built, with the offending value.
@@ -59,6 +68,9 @@ pub enum GeometryError {
         /// Cone diameter at the valve's base.
         cone_diameter_m: f64,
     },
+    /// The B-spline cone profile cannot be built.
+    #[error(transparent)]
+    Profile(#[from] ProfileError),
 }
 
 impl HopperGeometry {
@@ -85,6 +97,7 @@ impl HopperGeometry {
         if self.segments < 8 {
             return Err(GeometryError::TooFewSegments(self.segments));
         }
+        self.profile().validate()?;
         if self.has_valve() {
             for (name, value) in [
                 ("valve_gap", self.valve_gap_m),
@@ -116,15 +129,27 @@ impl HopperGeometry {
         0.5 * self.outlet_diameter_m
     }
 
-    /// Radius of the cone at the top of the conical section.
+    /// Radius of the cone at the top of the conical section: the straight cone's, which
+    /// the shape offsets do not move.
     pub fn top_radius_m(&self) -> f64 {
-        self.radius_at(self.cone_height_m)
+        self.outlet_radius_m() + self.cone_height_m * self.cone_half_angle_deg.to_radians().tan()
     }
 
-    /// Wall radius at height `z_m` above the outlet.
+    /// The wall profile of the conical section.
+    pub fn profile(&self) -> ConeProfile {
+        ConeProfile {
+            outlet_radius_m: self.outlet_radius_m(),
+            top_radius_m: self.top_radius_m(),
+            height_m: self.cone_height_m,
+            x1_m: self.shape_x1_m,
+            x2_m: self.shape_x2_m,
+            degree: self.shape_degree,
+        }
+    }
+
+    /// Wall radius at height `z_m` above the outlet (the top radius above the cone).
     pub fn radius_at(&self, z_m: f64) -> f64 {
-        let z = z_m.clamp(0.0, self.cone_height_m);
-        self.outlet_radius_m() + z * self.cone_half_angle_deg.to_radians().tan()
+        self.profile().radius_at(z_m)
     }
 
     /// Total height of cone plus cylinder.
@@ -132,8 +157,9 @@ impl HopperGeometry {
         self.cone_height_m + self.cylinder_height_m
     }
 
-    /// Interior volume of the cone frustum plus cylinder, m³.
-    pub fn volume_m3(&self) -> f64 {
+    /// Interior volume of the straight cone's frustum plus cylinder, m³ (closed form;
+    /// the shape offsets are ignored).
+    pub fn straight_volume_m3(&self) -> f64 {
         let (r0, r1, h) = (
             self.outlet_radius_m(),
             self.top_radius_m(),
@@ -143,13 +169,24 @@ impl HopperGeometry {
         frustum + std::f64::consts::PI * r1 * r1 * self.cylinder_height_m
     }
 
-    /// The hopper wall: cone and cylinder, open at both ends.
-    pub fn wall_mesh(&self) -> TriMesh {
-        let mut profile = banded(
-            (self.outlet_radius_m(), 0.0),
-            (self.top_radius_m(), self.cone_height_m),
-            self.band_height_m,
-        );
+    /// The wall profile `(r, z)` from the outlet rim up the cone and the cylinder, in
+    /// bands no taller than `band_height_m` (a curved cone: no longer along the curve).
+    pub fn wall_profile(&self) -> Vec<(f64, f64)> {
+        let cone = self.profile();
+        let mut profile = if cone.is_straight() {
+            banded(
+                (self.outlet_radius_m(), 0.0),
+                (self.top_radius_m(), self.cone_height_m),
+                self.band_height_m,
+            )
+        } else {
+            let fine = cone.points(400);
+            let length: f64 = fine
+                .windows(2)
+                .map(|p| (p[1].0 - p[0].0).hypot(p[1].1 - p[0].1))
+                .sum();
+            cone.points(((length / self.band_height_m).ceil() as usize).max(8))
+        };
         if self.cylinder_height_m > 0.0 {
             let cylinder = banded(
                 (self.top_radius_m(), self.cone_height_m),
@@ -158,6 +195,24 @@ impl HopperGeometry {
             );
             profile.extend_from_slice(&cylinder[1..]);
         }
+        profile
+    }
+
+    /// The hopper wall: cone and cylinder, open at both ends.
+    pub fn wall_mesh(&self) -> TriMesh {
+        TriMesh::revolve(&self.wall_profile(), self.segments)
+    }
+
+    /// The hopper's interior as a closed, watertight solid with outward normals: the
+    /// wall closed by a disk over the outlet and one over the top. This is the volume a
+    /// CFD mesher (snappyHexMesh) needs; its bottom disk is the outlet's cross-section.
+    pub fn solid_mesh(&self) -> TriMesh {
+        let wall = self.wall_profile();
+        let top = wall.last().copied().unwrap_or_default();
+        let mut profile = Vec::with_capacity(wall.len() + 2);
+        profile.push((0.0, 0.0));
+        profile.extend_from_slice(&wall);
+        profile.push((0.0, top.1));
         TriMesh::revolve(&profile, self.segments)
     }
 
@@ -224,7 +279,80 @@ mod tests {
             valve_height_m: 0.0,
             segments: 48,
             band_height_m: 0.005,
+            shape_x1_m: 0.0,
+            shape_x2_m: 0.0,
+            shape_degree: 3,
         }
+    }
+
+    #[test]
+    fn solid_of_the_straight_cone_is_watertight_with_the_frustum_volume() {
+        let g = reference();
+        let solid = g.solid_mesh();
+        assert_eq!(solid.open_edge_count(), 0);
+        // Cross-sections are regular 48-gons of area A(r) = N/2 r² sin(2π/N), scaled
+        // linearly along the cone: the prismatoid formula is exact for them.
+        let n = g.segments as f64;
+        let polygon = |r: f64| 0.5 * n * r * r * (2.0 * PI / n).sin();
+        let (a0, a1) = (polygon(g.outlet_radius_m()), polygon(g.top_radius_m()));
+        let exact = g.cone_height_m / 3.0 * (a0 + (a0 * a1).sqrt() + a1) + a1 * g.cylinder_height_m;
+        let volume = solid.volume_m3();
+        assert!(
+            (volume - exact).abs() / exact < 1e-12,
+            "{volume} vs {exact}"
+        );
+        // And it converges to the round hopper's closed form.
+        let mut fine = reference();
+        fine.segments = 720;
+        let round = g.straight_volume_m3();
+        assert!((fine.solid_mesh().volume_m3() - round).abs() / round < 1e-4);
+    }
+
+    #[test]
+    fn outlet_cross_section_of_the_solid_has_the_outlet_area() {
+        let mut g = reference();
+        g.segments = 720;
+        let solid = g.solid_mesh();
+        let outlet: f64 = (0..solid.triangles.len())
+            .filter(|&i| solid.corners(i).iter().all(|v| v[2] == 0.0))
+            .map(|i| {
+                let [a, b, c] = solid.corners(i);
+                0.5 * ((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])).abs()
+            })
+            .sum();
+        let exact = PI * g.outlet_radius_m().powi(2);
+        assert!((outlet - exact).abs() / exact < 1e-4, "{outlet} vs {exact}");
+    }
+
+    #[test]
+    fn curved_cones_stay_watertight_and_concave_holds_less() {
+        let straight = reference().solid_mesh().volume_m3();
+        for (x1, x2, degree) in [(-0.006, 0.006, 3), (0.006, -0.006, 3), (-0.004, 0.004, 2)] {
+            let mut g = reference();
+            (g.shape_x1_m, g.shape_x2_m, g.shape_degree) = (x1, x2, degree);
+            g.validate().unwrap();
+            let solid = g.solid_mesh();
+            assert_eq!(solid.open_edge_count(), 0);
+            let volume = solid.volume_m3();
+            assert_eq!(
+                volume < straight,
+                x1 < 0.0,
+                "{x1} {x2}: {volume} vs {straight}"
+            );
+            // The wall is open only at its two rims.
+            assert_eq!(g.wall_mesh().open_edge_count(), 2 * g.segments);
+            // Rims stay where the straight cone has them.
+            assert!((g.radius_at(0.0) - g.outlet_radius_m()).abs() < 1e-12);
+            assert!((g.radius_at(g.cone_height_m) - g.top_radius_m()).abs() < 1e-9);
+        }
+    }
+
+    #[test]
+    fn a_folding_profile_is_refused_by_the_geometry() {
+        let mut g = reference();
+        g.shape_x1_m = -0.02;
+        let message = g.validate().unwrap_err().to_string();
+        assert!(message.contains("shape_x1 = -0.02 m"), "{message}");
     }
 
     #[test]

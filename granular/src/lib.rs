@@ -6,6 +6,7 @@
 //!
 //! - [`geometry`]: the conical hopper, its outlet plug, an internal valve and sensor
 //!   planes as triangle meshes ([`mesh::TriMesh`]).
+//! - [`profile`]: the cone's wall as a clamped B-spline moved by the shape offsets.
 //! - [`crossing`]: turns particle sightings near a sensor plane into one crossing per
 //!   particle, with interpolated time and position.
 //! - [`responses`]: discharge rate, radial segregation and fine fraction in the outer
@@ -14,10 +15,12 @@
 pub mod crossing;
 pub mod geometry;
 pub mod mesh;
+pub mod profile;
 pub mod reference;
 pub mod responses;
 
 pub use crossing::{Crossing, CrossingDetector, Sighting};
 pub use geometry::{GeometryError, HopperGeometry};
 pub use mesh::TriMesh;
+pub use profile::{ConeProfile, ProfileError};
 pub use responses::{DischargeResponses, ResponseOptions};

@@ -59,6 +59,32 @@ impl TriMesh {
             .sum()
     }
 
+    /// Volume enclosed by a closed mesh, m³ (divergence theorem: the sum of signed
+    /// tetrahedra from the origin). Positive when the normals point outwards; meaningless
+    /// for an open surface.
+    pub fn volume_m3(&self) -> f64 {
+        (0..self.triangles.len())
+            .map(|i| {
+                let [a, b, c] = self.corners(i);
+                let n = cross(b, c);
+                (a[0] * n[0] + a[1] * n[1] + a[2] * n[2]) / 6.0
+            })
+            .sum()
+    }
+
+    /// Edges not shared by exactly two triangles. Zero for a watertight (closed,
+    /// manifold) mesh; for an open surface, the edges of its rims.
+    pub fn open_edge_count(&self) -> usize {
+        let mut uses: std::collections::HashMap<(u32, u32), usize> =
+            std::collections::HashMap::new();
+        for t in &self.triangles {
+            for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
+                *uses.entry((a.min(b), a.max(b))).or_insert(0) += 1;
+            }
+        }
+        uses.values().filter(|&&n| n != 2).count()
+    }
+
     /// Appends another mesh's vertices and triangles to this one.
     pub fn append(&mut self, other: &TriMesh) {
         let offset = self.vertices.len() as u32;

@@ -266,12 +266,12 @@ pub fn context(case: &Case) -> Context {
     }
     let coarse_radius = 0.5 * case.get("coarse_diameter");
     let sensor_z = sensor_z_m(case);
-    // Fill region: above the valve (or the lower third of the cone) up to the rim,
-    // one coarse diameter from the wall.
+    // Fill region: above the valve (or where the cone is as wide as the straight cone
+    // a third of the way up) up to the rim, one coarse diameter from the wall.
     let fill_bottom = if geometry.has_valve() {
         geometry.valve_gap_m + geometry.valve_height_m + coarse_radius * 2.0
     } else {
-        geometry.cone_height_m / 3.0
+        lowest_height_of_radius(&geometry, geometry.cone_height_m / 3.0)
     };
     let fill_top = geometry.total_height_m() - 2.0 * coarse_radius;
     let fill_radius = geometry.radius_at(fill_bottom) - 2.0 * coarse_radius;
@@ -324,6 +324,19 @@ pub fn context(case: &Case) -> Context {
         context.insert(*name, &prime_seed(case.seed, index as u64));
     }
     context
+}
+
+/// The lowest height, from `z_m` up, where the hopper is at least as wide as the
+/// straight cone is at `z_m`: `z_m` itself for the straight cone, higher for a concave
+/// one, so the fill region holds as many particles whatever the shape.
+fn lowest_height_of_radius(geometry: &HopperGeometry, z_m: f64) -> f64 {
+    let straight = geometry.outlet_radius_m()
+        + (geometry.top_radius_m() - geometry.outlet_radius_m()) * z_m / geometry.cone_height_m;
+    let steps = 200;
+    (0..=steps)
+        .map(|i| z_m + (geometry.cone_height_m - z_m) * i as f64 / steps as f64)
+        .find(|&z| geometry.radius_at(z) >= straight - 1e-12)
+        .unwrap_or(geometry.cone_height_m)
 }
 
 /// Checks a resolved case beyond per-parameter ranges: the geometry can be built, the

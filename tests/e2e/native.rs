@@ -158,3 +158,47 @@ fn an_unstable_native_run_fails_its_job_with_the_step_and_particle() {
         "{error}"
     );
 }
+
+/// The discharge rate of the job at `(shape_x1, shape_x2)` of a cone-shape study.
+fn rate_at(status: &serde_json::Value, x1: f64, x2: f64) -> f64 {
+    let job = status["jobs"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|j| {
+            (j["factors"]["shape_x1"].as_f64().unwrap() - x1).abs() < 1e-9
+                && (j["factors"]["shape_x2"].as_f64().unwrap() - x2).abs() < 1e-9
+        })
+        .unwrap_or_else(|| panic!("no job at ({x1}, {x2}): {status:#}"));
+    job["responses"]["discharge_rate"].as_f64().unwrap()
+}
+
+#[test]
+fn the_cone_shape_study_finds_the_concave_corner_faster_than_the_straight_cone() {
+    let _lock = solver_lock();
+    let project = Project::new();
+    let study = std::fs::read_to_string(root().join("jobs/cone-shape.yaml")).unwrap();
+    let file = project.write("cone-shape.yaml", &study);
+    let output = project.run(&["submit", file.to_str().unwrap()]);
+    assert_eq!(output.status.code(), Some(0), "{}", text(&output.stderr));
+    let status = project.status("cone-shape");
+    assert_eq!(count(&status, "succeeded"), 9, "{status:#}");
+
+    // The thesis: the concave corner (min X1, max X2) discharges 51.67 % faster than
+    // the straight cone; the convex corner (max X1, min X2) slower.
+    let straight = rate_at(&status, 0.0, 0.0);
+    let concave = rate_at(&status, -0.008, 0.008);
+    let convex = rate_at(&status, 0.008, -0.008);
+    let gain = 100.0 * (concave / straight - 1.0);
+    eprintln!(
+        "cone shape: straight {straight:.4} kg/s, concave {concave:.4} (+{gain:.1} %, thesis +51.67 %), convex {convex:.4}"
+    );
+    assert!(gain > 20.0, "concave only {gain:.1} % faster");
+    assert!(convex < straight, "convex {convex} vs straight {straight}");
+
+    // The fitted surface puts the optimum of the discharge rate at the concave corner.
+    let optimum = &status["rounds"][0]["optimum"];
+    assert_eq!(optimum["response"], "discharge_rate", "{optimum:#}");
+    assert_eq!(optimum["factors"]["shape_x1"].as_f64(), Some(-0.008));
+    assert_eq!(optimum["factors"]["shape_x2"].as_f64(), Some(0.008));
+}

@@ -1,6 +1,6 @@
 //! Solver adapters for `orch`.
 //!
-//! Each solver (LIGGGHTS and orch's native kernel today; YADE and OpenFOAM later) sits behind
+//! Each DEM solver (LIGGGHTS, YADE and orch's native kernel) sits behind
 //! one trait, [`SolverAdapter`], that does three things for a fully resolved [`Case`]:
 //!
 //! 1. **render** the solver's input into a run directory (a Tera template plus the
@@ -20,6 +20,7 @@ pub mod liggghts;
 pub mod native;
 mod params;
 mod primes;
+pub mod yade;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -120,13 +121,14 @@ pub trait SolverAdapter: Send + Sync {
 }
 
 /// Names of every solver `orch` knows, for messages.
-pub const SOLVER_NAMES: &[&str] = &["liggghts", "native"];
+pub const SOLVER_NAMES: &[&str] = &["liggghts", "native", "yade"];
 
 /// The adapter for solver `name`, or `None` for an unknown solver.
 pub fn adapter_for(name: &str) -> Option<&'static dyn SolverAdapter> {
     match name {
         "liggghts" => Some(&liggghts::Liggghts),
         "native" => Some(&native::Native),
+        "yade" => Some(&yade::Yade),
         _ => None,
     }
 }

@@ -1,0 +1,104 @@
+//! YADE (Debian `yade` 2023.02a): the hopper case as a Python script run in batch.
+//!
+//! The default template `templates/yade/hopper.py.tera` builds the same case as the
+//! LIGGGHTS deck and the native kernel's case file (same parameters, the derived values
+//! of [`crate::hopper::context`], the same STL walls imported as facets): Hertz-Mindlin
+//! contacts (`Ip2_FrictMat_FrictMat_MindlinPhys` + `Law2_ScGeom_MindlinPhys_Mindlin`),
+//! a plug removed after filling, vertical vibration by `HarmonicMotionEngine`. A
+//! `PyRunner` sensor writes each particle's crossing of the sensor plane to
+//! `post/crossings.csv` in the native kernel's format, so [`read_crossings`] reads both.
+//!
+//! Facts this relies on (`shared/solvers/README.md`): `yade -n -x script.py` runs
+//! without a GUI and exits when the script ends, 0 on success and 1 on an uncaught
+//! exception; `NewtonIntegrator`'s default damping 0.2 must be set to 0; `-j 2` is not
+//! reproducible, so runs use one thread.
+
+mod log;
+
+use std::path::Path;
+
+pub use log::{read_log, YadeSummary, SUMMARY_PREFIX};
+
+use crate::hopper;
+use crate::native::read_crossings;
+use crate::{
+    open_in_run_dir, Case, CommandSpec, Observations, ParameterSpec, ParseError, RenderError,
+    SolverAdapter,
+};
+
+/// The YADE adapter.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Yade;
+
+/// Name of the rendered script in the run directory.
+pub const SCRIPT_FILE: &str = "hopper.py";
+/// The log the script writes in the run directory.
+pub const LOG_FILE: &str = "log.yade";
+/// The sensor's crossings, relative to the run directory.
+pub const CROSSINGS_FILE: &str = "post/crossings.csv";
+
+impl SolverAdapter for Yade {
+    fn name(&self) -> &'static str {
+        "yade"
+    }
+
+    fn parameters(&self) -> &'static [ParameterSpec] {
+        hopper::PARAMETERS
+    }
+
+    fn default_template_name(&self) -> &'static str {
+        "templates/yade/hopper.py.tera"
+    }
+
+    fn install_hint(&self) -> &'static str {
+        "apt-get install -y yade (or scripts/setup)"
+    }
+
+    fn default_template(&self) -> &'static str {
+        include_str!("../../../templates/yade/hopper.py.tera")
+    }
+
+    fn check(&self, case: &Case) -> Result<(), RenderError> {
+        hopper::check(case)
+    }
+
+    fn render(
+        &self,
+        case: &Case,
+        template_name: &str,
+        template: &str,
+        run_dir: &Path,
+    ) -> Result<(), RenderError> {
+        hopper::render(case, template_name, template, run_dir, SCRIPT_FILE)
+    }
+
+    fn command(&self, _case: &Case) -> CommandSpec {
+        CommandSpec {
+            program: "yade".to_string(),
+            args: ["-j", "1", "-n", "-x", SCRIPT_FILE]
+                .iter()
+                .map(|s| s.to_string())
+                .collect(),
+            env: Default::default(),
+            cores: 1,
+            log_file: LOG_FILE.to_string(),
+        }
+    }
+
+    fn parse(&self, _case: &Case, run_dir: &Path) -> Result<Observations, ParseError> {
+        let open = |file: &str| open_in_run_dir(run_dir, file);
+        let (reader, log_path) = open(LOG_FILE)?;
+        let summary = read_log(reader, &log_path)?;
+        let (reader, crossings_path) = open(CROSSINGS_FILE)?;
+        let crossings = read_crossings(reader, &crossings_path)?;
+        Ok(Observations {
+            crossings,
+            solver_loop_time_s: Some(summary.loop_time_s),
+            particle_steps: Some(summary.particle_steps),
+            series: Vec::new(),
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests;

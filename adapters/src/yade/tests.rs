@@ -1,0 +1,112 @@
+use std::io::Cursor;
+use std::path::Path;
+
+use super::*;
+use crate::hopper::case_with;
+
+/// Renders `case` with the default template and returns the script's text.
+fn render(case: &Case) -> String {
+    let dir = tempfile::tempdir().unwrap();
+    let adapter = Yade;
+    adapter
+        .render(
+            case,
+            adapter.default_template_name(),
+            adapter.default_template(),
+            dir.path(),
+        )
+        .unwrap();
+    for mesh in ["hopper.stl", "plug.stl", "sink.stl"] {
+        assert!(dir.path().join(mesh).is_file(), "{mesh} not written");
+    }
+    std::fs::read_to_string(dir.path().join(SCRIPT_FILE)).unwrap()
+}
+
+#[test]
+fn default_script_snapshot() {
+    insta::assert_snapshot!("default_script", render(&case_with(&[])));
+}
+
+#[test]
+fn vibrated_valve_script_snapshot() {
+    let case = case_with(&[
+        ("valve_diameter", 0.016),
+        ("amplitude", 0.0005),
+        ("n_particles", 500.0),
+    ]);
+    insta::assert_snapshot!("vibrated_valve_script", render(&case));
+}
+
+#[test]
+fn the_script_is_the_liggghts_deck_s_case() {
+    let case = case_with(&[("amplitude", 0.0005)]);
+    let script = render(&case);
+    let context = hopper::context(&case).into_json();
+    for name in [
+        "sensor_z",
+        "fill_bottom",
+        "fill_radius",
+        "fill_top",
+        "timestep",
+        "delete_z",
+    ] {
+        let value = context[name].to_string();
+        assert!(script.contains(&value), "{name} = {value} in the script");
+    }
+    // Physical restitution needs YADE's numerical damping off.
+    assert!(script.contains("NewtonIntegrator(damping=0.0"));
+}
+
+#[test]
+fn command_runs_yade_in_batch_on_one_thread() {
+    let command = Yade.command(&case_with(&[]));
+    assert_eq!(command.program, "yade");
+    assert_eq!(command.args, ["-j", "1", "-n", "-x", "hopper.py"]);
+    assert_eq!(command.cores, 1);
+}
+
+/// A real run's output (tests/fixtures/yade/, 300 particles) parses into crossings.
+#[test]
+fn real_output_parses_into_crossings() {
+    let fixtures = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/fixtures/yade");
+    let observations = Yade.parse(&case_with(&[]), &fixtures).unwrap();
+    assert!(observations.crossings.len() > 250, "{}", observations.crossings.len());
+    assert!(observations
+        .crossings
+        .windows(2)
+        .all(|w| w[0].time_s <= w[1].time_s));
+    assert!(observations.crossings.iter().all(|c| c.position_m[2] == -0.005));
+    assert!(observations.solver_loop_time_s.unwrap() > 0.0);
+    assert!(observations.particle_steps.unwrap() > 1e5);
+}
+
+#[test]
+fn truncated_and_malformed_output_is_an_error_naming_the_file_and_line() {
+    let fixtures = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/fixtures/yade");
+    let log = std::fs::read_to_string(fixtures.join(LOG_FILE)).unwrap();
+    // A run killed before its summary line.
+    let truncated: String = log
+        .lines()
+        .filter(|l| !l.starts_with(SUMMARY_PREFIX))
+        .map(|l| format!("{l}\n"))
+        .collect();
+    let error = read_log(Cursor::new(truncated), Path::new("log.yade")).unwrap_err();
+    assert!(
+        error.to_string().contains("did not finish"),
+        "{error}"
+    );
+    let bad = "ORCH SUMMARY loop_time_s=abc steps=1 particle_steps=1 particles_left=0\n";
+    let error = read_log(Cursor::new(bad), Path::new("log.yade")).unwrap_err();
+    assert!(error.to_string().contains("log.yade:1"), "{error}");
+    assert!(error.to_string().contains("loop_time_s"), "{error}");
+
+    // Crossings cut in the middle of a line.
+    let csv = std::fs::read_to_string(fixtures.join(CROSSINGS_FILE)).unwrap();
+    let cut = &csv[..csv.len() - 20];
+    let lines = cut.lines().count();
+    let error = read_crossings(Cursor::new(cut), Path::new("c.csv")).unwrap_err();
+    assert!(
+        error.to_string().contains(&format!("c.csv:{lines}")),
+        "{error}"
+    );
+}

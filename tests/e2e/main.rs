@@ -14,3 +14,4 @@ mod rounds;
 mod slurm;
 mod study_files;
 mod support;
+mod yade;

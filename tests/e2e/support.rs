@@ -73,19 +73,35 @@ pub fn orch_bin() -> PathBuf {
     bin
 }
 
-/// True when LIGGGHTS is installed. Missing under CI=true is a failure, not a skip.
-pub fn require_liggghts() -> bool {
+/// True when `program` (of Debian package `package`, named `solver` in messages) is
+/// on PATH. Missing under CI=true is a failure, not a skip.
+pub fn require_program(solver: &str, program: &str, package: &str) -> bool {
     let found = std::env::var_os("PATH")
-        .map(|p| std::env::split_paths(&p).any(|d| d.join("liggghts").is_file()))
+        .map(|p| std::env::split_paths(&p).any(|d| d.join(program).is_file()))
         .unwrap_or(false);
     if !found {
         assert!(
             std::env::var("CI").as_deref() != Ok("true"),
-            "LIGGGHTS is not installed but CI=true: scripts/test must install it (apt-get install -y liggghts)"
+            "{solver} is not installed but CI=true: scripts/test must install it (apt-get install -y {package})"
         );
-        eprintln!("SKIPPED: LIGGGHTS is not installed (apt-get install -y liggghts); this test did not run");
+        eprintln!("SKIPPED: {solver} is not installed (apt-get install -y {package}); this test did not run");
     }
     found
+}
+
+/// True when LIGGGHTS is installed (see [`require_program`]).
+pub fn require_liggghts() -> bool {
+    require_program("LIGGGHTS", "liggghts", "liggghts")
+}
+
+/// True when YADE is installed (see [`require_program`]).
+pub fn require_yade() -> bool {
+    require_program("YADE", "yade", "yade")
+}
+
+/// True when OpenFOAM is installed (see [`require_program`]).
+pub fn require_openfoam() -> bool {
+    require_program("OpenFOAM", "pimpleFoam", "openfoam")
 }
 
 static SOLVER_LOCK: Mutex<()> = Mutex::new(());

@@ -70,12 +70,19 @@ fn command_runs_yade_in_batch_on_one_thread() {
 fn real_output_parses_into_crossings() {
     let fixtures = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/fixtures/yade");
     let observations = Yade.parse(&case_with(&[]), &fixtures).unwrap();
-    assert!(observations.crossings.len() > 250, "{}", observations.crossings.len());
+    assert!(
+        observations.crossings.len() > 250,
+        "{}",
+        observations.crossings.len()
+    );
     assert!(observations
         .crossings
         .windows(2)
         .all(|w| w[0].time_s <= w[1].time_s));
-    assert!(observations.crossings.iter().all(|c| c.position_m[2] == -0.005));
+    assert!(observations
+        .crossings
+        .iter()
+        .all(|c| c.position_m[2] == -0.005));
     assert!(observations.solver_loop_time_s.unwrap() > 0.0);
     assert!(observations.particle_steps.unwrap() > 1e5);
 }
@@ -91,10 +98,7 @@ fn truncated_and_malformed_output_is_an_error_naming_the_file_and_line() {
         .map(|l| format!("{l}\n"))
         .collect();
     let error = read_log(Cursor::new(truncated), Path::new("log.yade")).unwrap_err();
-    assert!(
-        error.to_string().contains("did not finish"),
-        "{error}"
-    );
+    assert!(error.to_string().contains("did not finish"), "{error}");
     let bad = "ORCH SUMMARY loop_time_s=abc steps=1 particle_steps=1 particles_left=0\n";
     let error = read_log(Cursor::new(bad), Path::new("log.yade")).unwrap_err();
     assert!(error.to_string().contains("log.yade:1"), "{error}");

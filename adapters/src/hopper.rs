@@ -17,7 +17,8 @@ use crate::{in_run_dir, Case, ParameterSpec, RenderError};
 /// Half-thickness of the band around the sensor plane that LIGGGHTS dumps, m.
 pub const SENSOR_BAND_M: f64 = 0.005;
 
-const fn spec(
+/// A parameter spec, for the adapters' tables.
+pub(crate) const fn spec(
     name: &'static str,
     default: f64,
     unit: &'static str,

@@ -18,6 +18,7 @@ mod error;
 pub mod hopper;
 pub mod liggghts;
 pub mod native;
+pub mod openfoam;
 mod params;
 mod primes;
 pub mod yade;

@@ -7,11 +7,13 @@
 //! - [`geometry`]: the conical hopper, its outlet plug, an internal valve and sensor
 //!   planes as triangle meshes ([`mesh::TriMesh`]).
 //! - [`profile`]: the cone's wall as a clamped B-spline moved by the shape offsets.
+//! - [`air`]: the drag of a falling particle stream on the air, for the CFD stage.
 //! - [`crossing`]: turns particle sightings near a sensor plane into one crossing per
 //!   particle, with interpolated time and position.
 //! - [`responses`]: discharge rate, radial segregation and fine fraction in the outer
 //!   layers of the stream (SCIENCE.md §4), and the reference formulas.
 
+pub mod air;
 pub mod crossing;
 pub mod geometry;
 pub mod mesh;

@@ -5,6 +5,8 @@
 //!   total mass, 20 % and 80 % by default), kg/s.
 //! - **Radial segregation**: `R1_mean` and `R2_mean`, the mean radial distances from
 //!   the axis of fine and coarse particles at the plane, and their ratio `R1/R2`.
+//! - **Exit speed**: the mass-weighted mean downward speed at the plane, m/s (what the
+//!   CFD stage needs to know of the stream, with its rate and radius).
 //! - **Fine mass fraction in the outer layer**: among particles whose radial distance
 //!   is at least `(1 − p) R_s`, the mass fraction of fines, for layer thicknesses `p`
 //!   of 2, 5, 10 and 12 % of the stream radius `R_s`, the largest radial distance of
@@ -57,6 +59,8 @@ pub struct DischargeResponses {
     pub segregation_ratio: Option<f64>,
     /// Largest radial distance of any crossing, m.
     pub stream_radius_m: Option<f64>,
+    /// Mass-weighted mean downward speed of the particles at the plane, m/s.
+    pub exit_speed_m_per_s: Option<f64>,
     /// `(layer thickness fraction, fine mass fraction in that layer)`.
     pub fine_fraction_outer: Vec<(f64, Option<f64>)>,
 }
@@ -96,6 +100,13 @@ impl DischargeResponses {
                 (layer, fraction)
             })
             .collect();
+        let exit_speed_m_per_s = (discharged_mass_kg > 0.0).then(|| {
+            crossings
+                .iter()
+                .map(|c| -c.velocity_m_per_s[2] * c.mass_kg)
+                .sum::<f64>()
+                / discharged_mass_kg
+        });
         DischargeResponses {
             discharged_count: crossings.len(),
             discharged_mass_kg,
@@ -104,6 +115,7 @@ impl DischargeResponses {
             r2_mean_m,
             segregation_ratio,
             stream_radius_m,
+            exit_speed_m_per_s,
             fine_fraction_outer,
         }
     }
@@ -120,6 +132,7 @@ impl DischargeResponses {
             ("R2_mean", self.r2_mean_m),
             ("segregation_ratio", self.segregation_ratio),
             ("stream_radius", self.stream_radius_m),
+            ("exit_speed", self.exit_speed_m_per_s),
         ];
         out.extend(
             optional
@@ -151,6 +164,7 @@ pub fn response_names() -> Vec<String> {
         "R2_mean",
         "segregation_ratio",
         "stream_radius",
+        "exit_speed",
     ]
     .iter()
     .map(|s| s.to_string())

@@ -1,0 +1,378 @@
+//! OpenFOAM (Debian `openfoam` v1912): the air a design point's particle stream drags
+//! along under the hopper outlet. This is the CFD stage chained after a DEM stage.
+//!
+//! The case (`templates/openfoam/stream/`) is a box under the outlet meshed by
+//! `blockMesh`; `topoSet` marks the cylinder the stream falls through; `pimpleFoam`
+//! (transient, incompressible, laminar) solves the air with the particles' drag as a
+//! semi-implicit momentum source there (`fvOptions`, rate from [`orch_granular::air`],
+//! fed by the DEM stage's discharge rate, exit speed and stream radius). The sides and
+//! the bottom are open to the still room; the hopper's underside is a wall. Two function
+//! objects write what a study reads back: `ring` (probes of the air velocity on a
+//! ring around the stream) and `entrained` (volume flow of air out through the bottom).
+//!
+//! Facts this relies on (`shared/solvers/README.md`): the programs are in /usr/bin and
+//! need only `WM_PROJECT_DIR=/usr/share/openfoam` (the package's bashrc fails), the
+//! tutorials' Allrun scripts do not work (ours is rendered with the case), and function
+//! objects write `postProcessing/<name>/<startTime>/<file>`.
+
+mod post;
+
+use std::path::Path;
+
+use orch_granular::air::{drag_rate_per_s, mean_fall_speed, StreamFraction};
+use tera::{Context, Tera};
+
+pub use post::{read_probes, read_surface_field_value, read_time_series_dirs};
+
+use crate::hopper::spec;
+use crate::{Case, CommandSpec, ParameterSpec, ParseError, RenderError, Series};
+
+/// The case's files: path in the case directory and template text.
+const FILES: &[(&str, &str)] = &[
+    (
+        "Allrun",
+        include_str!("../../../templates/openfoam/stream/Allrun"),
+    ),
+    (
+        "0/U",
+        include_str!("../../../templates/openfoam/stream/0/U"),
+    ),
+    (
+        "0/p",
+        include_str!("../../../templates/openfoam/stream/0/p"),
+    ),
+    (
+        "constant/fvOptions",
+        include_str!("../../../templates/openfoam/stream/constant/fvOptions"),
+    ),
+    (
+        "constant/transportProperties",
+        include_str!("../../../templates/openfoam/stream/constant/transportProperties"),
+    ),
+    (
+        "constant/turbulenceProperties",
+        include_str!("../../../templates/openfoam/stream/constant/turbulenceProperties"),
+    ),
+    (
+        "system/blockMeshDict",
+        include_str!("../../../templates/openfoam/stream/system/blockMeshDict"),
+    ),
+    (
+        "system/controlDict",
+        include_str!("../../../templates/openfoam/stream/system/controlDict"),
+    ),
+    (
+        "system/decomposeParDict",
+        include_str!("../../../templates/openfoam/stream/system/decomposeParDict"),
+    ),
+    (
+        "system/fvSchemes",
+        include_str!("../../../templates/openfoam/stream/system/fvSchemes"),
+    ),
+    (
+        "system/fvSolution",
+        include_str!("../../../templates/openfoam/stream/system/fvSolution"),
+    ),
+    (
+        "system/topoSetDict",
+        include_str!("../../../templates/openfoam/stream/system/topoSetDict"),
+    ),
+];
+
+/// Where the templates live, for messages.
+pub const TEMPLATE_DIR: &str = "templates/openfoam/stream";
+/// The solver's log in the case directory.
+pub const LOG_FILE: &str = "log.pimpleFoam";
+/// Probes of the air velocity on the ring around the stream.
+pub const RING_PROBES: &str = "postProcessing/ring";
+/// Volume flow of air through the bottom of the domain.
+pub const ENTRAINED_FLOW: &str = "postProcessing/entrained";
+/// Probes on the ring.
+pub const RING_POINTS: usize = 8;
+/// Responses are averaged over this last fraction of the simulated time.
+pub const AVERAGE_OVER: f64 = 0.25;
+
+/// Parameters of the CFD stage (set under `cfd: fixed:` in a study file).
+pub static PARAMETERS: &[ParameterSpec] = &[
+    spec("air_density", 1.2, "kg/m^3", 0.01, 100.0, "air density"),
+    spec(
+        "air_viscosity",
+        1.5e-5,
+        "m^2/s",
+        1e-7,
+        1e-2,
+        "kinematic viscosity of the air",
+    ),
+    spec(
+        "domain_depth",
+        0.1,
+        "m",
+        0.005,
+        10.0,
+        "height of the air domain under the outlet",
+    ),
+    spec(
+        "domain_half_width",
+        0.04,
+        "m",
+        0.005,
+        10.0,
+        "half-width of the square air domain",
+    ),
+    spec(
+        "cells_across",
+        16.0,
+        "-",
+        4.0,
+        400.0,
+        "cells across the domain",
+    ),
+    spec("cells_down", 24.0, "-", 4.0, 400.0, "cells along the fall"),
+    spec("end_time", 0.3, "s", 0.001, 100.0, "simulated time"),
+    spec(
+        "ring_radius_factor",
+        2.0,
+        "-",
+        1.0,
+        10.0,
+        "probe ring radius in stream radii",
+    ),
+    spec(
+        "cores",
+        1.0,
+        "-",
+        1.0,
+        64.0,
+        "MPI ranks (decomposePar + mpirun)",
+    ),
+];
+
+/// What the CFD stage takes from its DEM stage: the stream leaving the outlet.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StreamInputs {
+    /// Particle mass flow, kg/s (DEM response `discharge_rate`).
+    pub discharge_rate_kg_per_s: f64,
+    /// Mean downward speed at the sensor plane, m/s (`exit_speed`).
+    pub exit_speed_m_per_s: f64,
+    /// Radius of the stream at the sensor plane, m (`stream_radius`).
+    pub stream_radius_m: f64,
+    /// Coarse particle diameter, m (DEM parameter).
+    pub coarse_diameter_m: f64,
+    /// Fine particle diameter, m.
+    pub fine_diameter_m: f64,
+    /// Mass fraction of fines.
+    pub fine_mass_fraction: f64,
+    /// Particle density, kg/m³.
+    pub particle_density: f64,
+}
+
+/// DEM responses the CFD stage reads (besides DEM parameters).
+pub const DEM_RESPONSES_USED: &[&str] = &["discharge_rate", "exit_speed", "stream_radius"];
+
+impl StreamInputs {
+    /// The inputs from a DEM case's parameters and its stored responses; `None` names
+    /// the first missing response.
+    pub fn from_dem(
+        dem_case: &Case,
+        response: impl Fn(&str) -> Option<f64>,
+    ) -> Result<StreamInputs, String> {
+        let get = |name: &str| {
+            response(name)
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| format!("its DEM stage has no `{name}` response"))
+        };
+        Ok(StreamInputs {
+            discharge_rate_kg_per_s: get("discharge_rate")?,
+            exit_speed_m_per_s: get("exit_speed")?,
+            stream_radius_m: get("stream_radius")?,
+            coarse_diameter_m: dem_case.get("coarse_diameter"),
+            fine_diameter_m: dem_case.get("fine_diameter"),
+            fine_mass_fraction: dem_case.get("fine_mass_fraction"),
+            particle_density: dem_case.get("density"),
+        })
+    }
+}
+
+/// Every value the case templates see.
+pub fn context(case: &Case, stream: &StreamInputs) -> Context {
+    let mut context = Context::new();
+    for (name, value) in &case.parameters.0 {
+        context.insert(name.as_str(), value);
+    }
+    let depth = case.get("domain_depth");
+    let speed = mean_fall_speed(stream.exit_speed_m_per_s, depth);
+    let fractions = [
+        StreamFraction {
+            diameter_m: stream.coarse_diameter_m,
+            mass_flow_kg_per_s: stream.discharge_rate_kg_per_s * (1.0 - stream.fine_mass_fraction),
+        },
+        StreamFraction {
+            diameter_m: stream.fine_diameter_m,
+            mass_flow_kg_per_s: stream.discharge_rate_kg_per_s * stream.fine_mass_fraction,
+        },
+    ];
+    let drag_rate = drag_rate_per_s(
+        &fractions,
+        stream.particle_density,
+        stream.stream_radius_m,
+        speed,
+        case.get("air_viscosity"),
+    );
+    let ring_radius = case.get("ring_radius_factor") * stream.stream_radius_m;
+    let probes: Vec<[f64; 3]> = (0..RING_POINTS)
+        .map(|k| {
+            let phi = std::f64::consts::TAU * k as f64 / RING_POINTS as f64;
+            [
+                ring_radius * phi.cos(),
+                ring_radius * phi.sin(),
+                -0.5 * depth,
+            ]
+        })
+        .collect();
+    let cells = (case.get("domain_half_width") * 2.0 / case.get("cells_across"))
+        .min(depth / case.get("cells_down"));
+    context.insert("half_width", &case.get("domain_half_width"));
+    context.insert("depth", &depth);
+    context.insert("cells_across", &(case.get("cells_across").round() as u64));
+    context.insert("cells_down", &(case.get("cells_down").round() as u64));
+    context.insert("cores_int", &(case.get("cores").round() as u64));
+    context.insert("stream_radius", &stream.stream_radius_m);
+    context.insert("particle_speed", &speed);
+    context.insert("drag_rate", &drag_rate);
+    context.insert("ring_probes", &probes);
+    // A first step that keeps the Courant number below 0.1 at the particles' speed.
+    context.insert("initial_timestep", &(0.1 * cells / speed.max(0.1)));
+    context
+}
+
+/// Checks a CFD case: the stream and its probe ring fit inside the domain.
+pub fn check(case: &Case, stream: &StreamInputs) -> Result<(), RenderError> {
+    let ring = case.get("ring_radius_factor") * stream.stream_radius_m;
+    let half_width = case.get("domain_half_width");
+    if ring >= half_width {
+        return Err(RenderError::InvalidCase(format!(
+            "the probe ring (radius {ring:.4} m = ring_radius_factor × stream radius) does not fit in the domain (domain_half_width {half_width} m); widen the domain"
+        )));
+    }
+    if !(stream.discharge_rate_kg_per_s > 0.0 && stream.stream_radius_m > 0.0) {
+        return Err(RenderError::InvalidCase(format!(
+            "the DEM stage gave no stream to drive the air (discharge_rate {} kg/s, stream_radius {} m)",
+            stream.discharge_rate_kg_per_s, stream.stream_radius_m
+        )));
+    }
+    Ok(())
+}
+
+/// Writes the case into `run_dir`: every template rendered, `Allrun` executable.
+pub fn render(case: &Case, stream: &StreamInputs, run_dir: &Path) -> Result<(), RenderError> {
+    check(case, stream)?;
+    let context = context(case, stream);
+    for (file, template) in FILES {
+        let name = format!("{TEMPLATE_DIR}/{file}");
+        let mut tera = Tera::default();
+        let text = tera
+            .add_raw_template(&name, template)
+            .and_then(|_| tera.render(&name, &context))
+            .map_err(|e| RenderError::Template {
+                template: name.clone(),
+                message: describe(&e),
+            })?;
+        let path = run_dir.join(file);
+        if let Some(parent) = path.parent() {
+            std::fs::create_dir_all(parent).map_err(|source| RenderError::Write {
+                path: parent.to_path_buf(),
+                source,
+            })?;
+        }
+        std::fs::write(&path, text).map_err(|source| RenderError::Write {
+            path: path.clone(),
+            source,
+        })?;
+    }
+    Ok(())
+}
+
+fn describe(error: &tera::Error) -> String {
+    let mut message = error.to_string();
+    let mut source = std::error::Error::source(error);
+    while let Some(cause) = source {
+        message.push_str(": ");
+        message.push_str(&cause.to_string());
+        source = cause.source();
+    }
+    message
+}
+
+/// The command: the rendered `Allrun` (blockMesh, topoSet, pimpleFoam; with
+/// decomposePar, mpirun and reconstructPar when `cores` > 1).
+pub fn command(case: &Case) -> CommandSpec {
+    CommandSpec {
+        program: "/bin/sh".to_string(),
+        args: vec!["Allrun".to_string()],
+        env: Default::default(),
+        cores: case.get("cores").round() as usize,
+        log_file: LOG_FILE.to_string(),
+    }
+}
+
+/// What a CFD run gives: responses and time series.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CfdResults {
+    /// `air_entrained_flow` (m³/s out through the bottom) and `air_ring_speed` (m/s,
+    /// mean air speed on the probe ring), averaged over the last [`AVERAGE_OVER`] of
+    /// the run.
+    pub responses: Vec<(String, f64)>,
+    /// The same two quantities over time.
+    pub series: Vec<Series>,
+}
+
+/// Reads the function objects' output of a finished case.
+pub fn parse(run_dir: &Path) -> Result<CfdResults, ParseError> {
+    let entrained = read_time_series_dirs(
+        &run_dir.join(ENTRAINED_FLOW),
+        "surfaceFieldValue.dat",
+        |r, p| read_surface_field_value(r, p),
+    )?;
+    let ring = read_time_series_dirs(&run_dir.join(RING_PROBES), "U", |r, p| {
+        read_probes(r, p).map(|rows| {
+            rows.into_iter()
+                .map(|(t, vectors)| {
+                    let speeds: f64 = vectors
+                        .iter()
+                        .map(|v| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt())
+                        .sum();
+                    (t, speeds / vectors.len().max(1) as f64)
+                })
+                .collect()
+        })
+    })?;
+    let responses = vec![
+        ("air_entrained_flow".to_string(), late_mean(&entrained)),
+        ("air_ring_speed".to_string(), late_mean(&ring)),
+    ];
+    Ok(CfdResults {
+        responses,
+        series: vec![
+            Series {
+                name: "air_entrained_flow".to_string(),
+                points: entrained,
+            },
+            Series {
+                name: "air_ring_speed".to_string(),
+                points: ring,
+            },
+        ],
+    })
+}
+
+/// Mean of a series' values over its last [`AVERAGE_OVER`] of time (the last value
+/// when that window holds none).
+fn late_mean(series: &[(f64, f64)]) -> f64 {
+    let end = series.last().map_or(0.0, |p| p.0);
+    let from = end * (1.0 - AVERAGE_OVER);
+    let late: Vec<f64> = series.iter().filter(|p| p.0 >= from).map(|p| p.1).collect();
+    late.iter().sum::<f64>() / late.len().max(1) as f64
+}
+
+#[cfg(test)]
+mod tests;

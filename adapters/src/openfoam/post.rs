@@ -1,0 +1,198 @@
+//! Readers for OpenFOAM function-object output (`postProcessing/<name>/<startTime>/`).
+//!
+//! Both formats are text with `#` header lines, then one row per time step:
+//!
+//! ```text
+//! # Time          sum(phi)                      <- surfaceFieldValue.dat
+//! 0.00012         2.26474106e-06
+//! # Probe 0 (0.02 0 -0.05)                      <- probes/<startTime>/U
+//! #          Time
+//!         0.00012  (-3.65e-05 4.51e-06 6.08e-05)  (4.51e-06 -3.65e-05 6.08e-05)
+//! ```
+//!
+//! A restarted run starts a new `<startTime>` directory; [`read_time_series_dirs`]
+//! joins them in time order.
+
+use std::io::BufRead;
+use std::path::{Path, PathBuf};
+
+use crate::ParseError;
+
+fn malformed(path: &Path, line: usize, message: String) -> ParseError {
+    ParseError::Malformed {
+        path: path.to_path_buf(),
+        line,
+        message,
+    }
+}
+
+/// The data rows of a `#`-commented file as `(1-based line, text)`; an error when it
+/// has none.
+fn data_rows<R: BufRead>(reader: R, path: &Path) -> Result<Vec<(usize, String)>, ParseError> {
+    let mut rows = Vec::new();
+    let mut header = Vec::new();
+    for (index, line) in reader.lines().enumerate() {
+        let line = line.map_err(|source| ParseError::Read {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        let trimmed = line.trim();
+        if trimmed.starts_with('#') {
+            header.push(trimmed.to_string());
+        } else if !trimmed.is_empty() {
+            rows.push((index + 1, trimmed.to_string()));
+        }
+    }
+    if rows.is_empty() {
+        return Err(malformed(
+            path,
+            header.len().max(1),
+            "no data rows after the header: the solver wrote no time step".to_string(),
+        ));
+    }
+    Ok(rows)
+}
+
+fn number(path: &Path, line: usize, text: &str, what: &str) -> Result<f64, ParseError> {
+    text.parse::<f64>()
+        .ok()
+        .filter(|v| v.is_finite())
+        .ok_or_else(|| {
+            malformed(
+                path,
+                line,
+                format!("expected {what} (a finite number), found `{text}`"),
+            )
+        })
+}
+
+/// Reads a `surfaceFieldValue.dat` of one field: `(time s, value)` rows.
+pub fn read_surface_field_value<R: BufRead>(
+    reader: R,
+    path: &Path,
+) -> Result<Vec<(f64, f64)>, ParseError> {
+    data_rows(reader, path)?
+        .into_iter()
+        .map(|(line, text)| {
+            let fields: Vec<&str> = text.split_whitespace().collect();
+            if fields.len() != 2 {
+                return Err(malformed(
+                    path,
+                    line,
+                    format!("expected `time value`, found `{text}`"),
+                ));
+            }
+            Ok((
+                number(path, line, fields[0], "the time")?,
+                number(path, line, fields[1], "the value")?,
+            ))
+        })
+        .collect()
+}
+
+/// Reads a vector probes file: per row the time and one `(x y z)` per probe, as many
+/// as its `# Probe k (...)` header lines announce.
+pub fn read_probes<R: BufRead>(
+    reader: R,
+    path: &Path,
+) -> Result<Vec<(f64, Vec<[f64; 3]>)>, ParseError> {
+    let text: Vec<String> =
+        reader
+            .lines()
+            .collect::<Result<_, _>>()
+            .map_err(|source| ParseError::Read {
+                path: path.to_path_buf(),
+                source,
+            })?;
+    let probes = text
+        .iter()
+        .filter(|l| l.trim_start().starts_with("# Probe "))
+        .count();
+    if probes == 0 {
+        return Err(malformed(
+            path,
+            1,
+            "no `# Probe k (x y z)` header lines: not a probes file".to_string(),
+        ));
+    }
+    let rows = data_rows(std::io::Cursor::new(text.join("\n")), path)?;
+    rows.into_iter()
+        .map(|(line, row)| {
+            let (time, rest) = row.split_once(char::is_whitespace).unwrap_or((&row, ""));
+            let time = number(path, line, time, "the time")?;
+            let mut vectors = Vec::with_capacity(probes);
+            let mut rest = rest.trim();
+            while let Some(open) = rest.strip_prefix('(') {
+                let Some((inside, after)) = open.split_once(')') else {
+                    return Err(malformed(path, line, format!("a vector is not closed in `{row}`")));
+                };
+                let parts: Vec<&str> = inside.split_whitespace().collect();
+                if parts.len() != 3 {
+                    return Err(malformed(
+                        path,
+                        line,
+                        format!("expected a vector `(x y z)`, found `({inside})`"),
+                    ));
+                }
+                let mut v = [0.0; 3];
+                for (slot, part) in v.iter_mut().zip(parts) {
+                    *slot = number(path, line, part, "a vector component")?;
+                }
+                vectors.push(v);
+                rest = after.trim_start();
+            }
+            if vectors.len() != probes || !rest.is_empty() {
+                return Err(malformed(
+                    path,
+                    line,
+                    format!(
+                        "expected {probes} vectors after the time, found {} (the row is cut or malformed)",
+                        vectors.len()
+                    ),
+                ));
+            }
+            Ok((time, vectors))
+        })
+        .collect()
+}
+
+/// Reads `<dir>/<startTime>/<file>` for every start time, in time order, and joins the
+/// rows: a later start time's rows replace the earlier ones from that time on.
+pub fn read_time_series_dirs<T>(
+    dir: &Path,
+    file: &str,
+    read: impl Fn(std::io::BufReader<std::fs::File>, &Path) -> Result<Vec<(f64, T)>, ParseError>,
+) -> Result<Vec<(f64, T)>, ParseError> {
+    let entries = std::fs::read_dir(dir).map_err(|source| ParseError::Read {
+        path: dir.to_path_buf(),
+        source,
+    })?;
+    let mut starts: Vec<(f64, PathBuf)> = entries
+        .filter_map(|e| e.ok())
+        .filter_map(|e| {
+            let start = e.file_name().to_str()?.parse::<f64>().ok()?;
+            Some((start, e.path()))
+        })
+        .collect();
+    if starts.is_empty() {
+        return Err(malformed(
+            dir,
+            0,
+            "no <startTime> directory: the function object wrote nothing".to_string(),
+        ));
+    }
+    starts.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut rows: Vec<(f64, T)> = Vec::new();
+    for (start, start_dir) in starts {
+        let path = start_dir.join(file);
+        let reader = std::fs::File::open(&path)
+            .map(std::io::BufReader::new)
+            .map_err(|source| ParseError::Read {
+                path: path.clone(),
+                source,
+            })?;
+        rows.retain(|(t, _)| *t < start);
+        rows.extend(read(reader, &path)?);
+    }
+    Ok(rows)
+}

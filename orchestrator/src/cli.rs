@@ -170,6 +170,16 @@ async fn submit(
             study.adapter.install_hint()
         )));
     }
+    if study.cfd.is_some() {
+        if let Some(missing) = ["blockMesh", "topoSet", "pimpleFoam"]
+            .into_iter()
+            .find(|p| !program_exists(p))
+        {
+            return Err(input_error(format!(
+                "the study has a `cfd:` stage but OpenFOAM's `{missing}` is not on PATH; install it with `apt-get install -y openfoam` (or scripts/setup) and submit again; nothing was written"
+            )));
+        }
+    }
     if study.executor.kind == ExecutorKind::Slurm {
         if let Some(missing) = ["sbatch", "squeue", "scancel"]
             .into_iter()

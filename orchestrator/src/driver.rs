@@ -12,7 +12,9 @@
 //!    limit is terminated (Slurm enforces its own), and a job that vanished without an
 //!    exit status goes back to pending;
 //! 3. render and launch pending jobs while fewer than `max_parallel` (local) or
-//!    `max_submitted` (Slurm) are unfinished.
+//!    `max_submitted` (Slurm) are unfinished. A CFD stage waits until its DEM job has
+//!    succeeded and is rendered from that job's responses; when the DEM job failed or
+//!    was cancelled, so is its CFD stage.
 //!
 //! The store is the truth: after `kill -9` of `orch`, a new driver finds submitted and
 //! running jobs by their handles, follows them to the end and collects their results;
@@ -23,7 +25,7 @@ use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-use orch_adapters::Observations;
+use orch_adapters::{openfoam, CommandSpec, Observations};
 use orch_granular::responses::{cumulative_mass_series, mass_flow_series};
 use orch_granular::{DischargeResponses, ResponseOptions};
 use tokio::signal::unix::{signal, SignalKind};
@@ -140,12 +142,19 @@ async fn drive_with<E: Executor>(
             let launched: Vec<&JobRow> = jobs.iter().filter(|j| is_launched(j.state())).collect();
             driver.poll(&launched).await?;
         }
+        driver.settle_orphaned_stages().await?;
         let jobs = store.jobs(study_id).await?;
+        let state_of: HashMap<i64, JobState> = jobs.iter().map(|j| (j.id, j.state())).collect();
+        let ready = |job: &JobRow| {
+            job.after_job_id
+                .is_none_or(|after| state_of.get(&after) == Some(&JobState::Succeeded))
+        };
         let launched = jobs.iter().filter(|j| is_launched(j.state())).count();
         let free = study.executor.max_parallel.saturating_sub(launched);
         let launchable: Vec<&JobRow> = jobs
             .iter()
             .filter(|j| j.state() == JobState::Pending && !driver.terminating.contains_key(&j.id))
+            .filter(|j| ready(j))
             .take(free)
             .collect();
         for job in launchable {
@@ -243,9 +252,68 @@ impl<E: Executor> Driver<'_, E> {
         due
     }
 
+    /// CFD stages whose DEM job failed or was cancelled follow it: nothing can drive
+    /// their air. (`orch resume` reopens both.)
+    async fn settle_orphaned_stages(&mut self) -> Result<(), DriverError> {
+        let jobs = self.store.jobs(self.study_id).await?;
+        let by_id: HashMap<i64, &JobRow> = jobs.iter().map(|j| (j.id, j)).collect();
+        for job in jobs.iter().filter(|j| j.state() == JobState::Pending) {
+            let Some(dem) = job.after_job_id.and_then(|id| by_id.get(&id)) else {
+                continue;
+            };
+            match dem.state() {
+                JobState::Failed => {
+                    let reason = format!(
+                        "its DEM stage {} failed, so there is no stream to drive the air",
+                        dem.name
+                    );
+                    self.report(job, &format!("failed: {reason}"));
+                    self.store.mark_failed(job.id, None, &reason).await?;
+                }
+                JobState::Cancelled => {
+                    let note = format!("its DEM stage {} was cancelled", dem.name);
+                    self.store.mark_cancelled(job.id, &note).await?;
+                }
+                _ => {}
+            }
+        }
+        Ok(())
+    }
+
+    /// Renders a job into its run directory and returns its command, or why not.
+    async fn render(&self, job: &JobRow, run_dir: &Path) -> Result<CommandSpec, String> {
+        if !job.is_cfd() {
+            let case = self.case(job);
+            let template = &self.study.template;
+            self.study
+                .adapter
+                .render(&case, &template.name, &template.text, run_dir)
+                .map_err(|e| format!("cannot render the case: {e}"))?;
+            return Ok(self.study.adapter.command(&case));
+        }
+        let Some(stage) = &self.study.cfd else {
+            return Err("the study file no longer has a `cfd:` section".to_string());
+        };
+        let dem = match job.after_job_id {
+            Some(id) => self.store.job(id).await.map_err(|e| e.to_string())?,
+            None => return Err("a CFD stage without its DEM job".to_string()),
+        };
+        let responses = self
+            .store
+            .job_responses(dem.id)
+            .await
+            .map_err(|e| e.to_string())?;
+        let stream = openfoam::StreamInputs::from_dem(&self.case(&dem), |name| {
+            responses.get(name).copied()
+        })?;
+        let case = stage.case();
+        openfoam::render(&case, &stream, run_dir)
+            .map_err(|e| format!("cannot render the CFD case: {e}"))?;
+        Ok(openfoam::command(&case))
+    }
+
     async fn launch(&mut self, job: &JobRow) -> Result<(), DriverError> {
         let run_dir = PathBuf::from(&job.run_dir);
-        let case = self.case(job);
         if let Err(e) = clean_run_dir(&run_dir) {
             self.store
                 .mark_failed(
@@ -259,22 +327,19 @@ impl<E: Executor> Driver<'_, E> {
                 .await?;
             return Ok(());
         }
-        let template = &self.study.template;
-        if let Err(e) = self
-            .study
-            .adapter
-            .render(&case, &template.name, &template.text, &run_dir)
-        {
-            let message = format!("cannot render the case: {e}");
-            self.report(job, &message);
-            self.store.mark_failed(job.id, None, &message).await?;
-            return Ok(());
-        }
+        let command = match self.render(job, &run_dir).await {
+            Ok(command) => command,
+            Err(message) => {
+                self.report(job, &message);
+                self.store.mark_failed(job.id, None, &message).await?;
+                return Ok(());
+            }
+        };
         self.store.mark_rendered(job.id).await?;
         let spec = LaunchSpec {
             name: self.spec_name(job),
             run_dir: run_dir.clone(),
-            command: self.study.adapter.command(&case),
+            command,
         };
         match self.executor.launch(&spec).await {
             Ok(launched) if launched.queued => {
@@ -401,6 +466,9 @@ impl<E: Executor> Driver<'_, E> {
     }
 
     fn log_file(&self, job: &JobRow) -> String {
+        if job.is_cfd() {
+            return openfoam::LOG_FILE.to_string();
+        }
         self.study.adapter.command(&self.case(job)).log_file
     }
 
@@ -409,12 +477,18 @@ impl<E: Executor> Driver<'_, E> {
         let case = self.case(job);
         let adapter = self.study.adapter;
         let dir = run_dir.to_path_buf();
-        let parsed = tokio::task::spawn_blocking(move || adapter.parse(&case, &dir))
-            .await
-            .unwrap_or_else(|e| panic!("the parser of {} panicked: {e}", adapter.name()));
+        let is_cfd = job.is_cfd();
+        let parsed = tokio::task::spawn_blocking(move || {
+            if is_cfd {
+                openfoam::parse(&dir).map(cfd_results)
+            } else {
+                adapter.parse(&case, &dir).map(|o| results_of(&o))
+            }
+        })
+        .await
+        .unwrap_or_else(|e| panic!("the parser of {} panicked: {e}", adapter.name()));
         match parsed {
-            Ok(observations) => {
-                let results = results_of(&observations);
+            Ok(results) => {
                 self.report_success(job, &results);
                 self.store.mark_succeeded(job.id, 0, &results).await?;
             }
@@ -566,6 +640,18 @@ pub fn results_of(observations: &Observations) -> JobResults {
     JobResults {
         responses: named,
         series,
+    }
+}
+
+/// Responses and series of a CFD stage.
+fn cfd_results(results: openfoam::CfdResults) -> JobResults {
+    JobResults {
+        responses: results.responses,
+        series: results
+            .series
+            .into_iter()
+            .map(|s| (s.name, s.points))
+            .collect(),
     }
 }
 

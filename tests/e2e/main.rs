@@ -9,6 +9,7 @@ mod architecture;
 mod crash_resume;
 mod faults;
 mod native;
+mod openfoam;
 mod real_liggghts;
 mod rounds;
 mod slurm;

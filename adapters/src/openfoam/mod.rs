@@ -166,6 +166,9 @@ pub struct StreamInputs {
     pub particle_density: f64,
 }
 
+/// Responses of the CFD stage.
+pub const RESPONSES: &[&str] = &["air_entrained_flow", "air_ring_speed"];
+
 /// DEM responses the CFD stage reads (besides DEM parameters).
 pub const DEM_RESPONSES_USED: &[&str] = &["discharge_rate", "exit_speed", "stream_radius"];
 
@@ -331,7 +334,7 @@ pub fn parse(run_dir: &Path) -> Result<CfdResults, ParseError> {
     let entrained = read_time_series_dirs(
         &run_dir.join(ENTRAINED_FLOW),
         "surfaceFieldValue.dat",
-        |r, p| read_surface_field_value(r, p),
+        read_surface_field_value,
     )?;
     let ring = read_time_series_dirs(&run_dir.join(RING_PROBES), "U", |r, p| {
         read_probes(r, p).map(|rows| {
@@ -347,8 +350,8 @@ pub fn parse(run_dir: &Path) -> Result<CfdResults, ParseError> {
         })
     })?;
     let responses = vec![
-        ("air_entrained_flow".to_string(), late_mean(&entrained)),
-        ("air_ring_speed".to_string(), late_mean(&ring)),
+        (RESPONSES[0].to_string(), late_mean(&entrained)),
+        (RESPONSES[1].to_string(), late_mean(&ring)),
     ];
     Ok(CfdResults {
         responses,

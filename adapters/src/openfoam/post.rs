@@ -90,12 +90,12 @@ pub fn read_surface_field_value<R: BufRead>(
         .collect()
 }
 
+/// Rows of a vector probes file: time (s) and one vector per probe.
+pub type ProbeRows = Vec<(f64, Vec<[f64; 3]>)>;
+
 /// Reads a vector probes file: per row the time and one `(x y z)` per probe, as many
 /// as its `# Probe k (...)` header lines announce.
-pub fn read_probes<R: BufRead>(
-    reader: R,
-    path: &Path,
-) -> Result<Vec<(f64, Vec<[f64; 3]>)>, ParseError> {
+pub fn read_probes<R: BufRead>(reader: R, path: &Path) -> Result<ProbeRows, ParseError> {
     let text: Vec<String> =
         reader
             .lines()

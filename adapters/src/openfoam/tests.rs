@@ -103,8 +103,7 @@ fn restarted_runs_join_their_start_time_directories() {
         std::fs::create_dir_all(&sub).unwrap();
         std::fs::write(sub.join("f.dat"), format!("# Time value\n{rows}")).unwrap();
     }
-    let rows =
-        read_time_series_dirs(dir.path(), "f.dat", |r, p| read_surface_field_value(r, p)).unwrap();
+    let rows = read_time_series_dirs(dir.path(), "f.dat", read_surface_field_value).unwrap();
     assert_eq!(rows, vec![(0.1, 1.0), (0.25, 20.0), (0.3, 30.0)]);
 }
 

@@ -17,7 +17,7 @@ use sqlx::sqlite::{SqliteConnectOptions, SqliteJournalMode, SqlitePoolOptions, S
 use sqlx::{Row, SqlitePool};
 
 pub use rounds::{FitRecord, RoundRecord, StoredFit, StoredRound};
-pub use rows::{FactorRow, JobRow, JobState, PointRow, StudyRow, StudyState};
+pub use rows::{FactorRow, JobRow, JobState, PointRow, StudyRow, StudyState, CFD_STAGE};
 
 use crate::study::Study;
 
@@ -405,6 +405,17 @@ impl Store {
         Ok(out)
     }
 
+    /// Responses of one job, by name.
+    pub async fn job_responses(&self, job_id: i64) -> Result<BTreeMap<String, f64>, StoreError> {
+        let rows: Vec<(String, f64)> =
+            sqlx::query_as("SELECT name, value FROM responses WHERE job_id = ?")
+                .bind(job_id)
+                .fetch_all(&self.pool)
+                .await
+                .map_err(query_error("read a job's responses"))?;
+        Ok(rows.into_iter().collect())
+    }
+
     /// One time series of a job, in time order.
     pub async fn series(&self, job_id: i64, name: &str) -> Result<Vec<(f64, f64)>, StoreError> {
         sqlx::query_as("SELECT t, value FROM series WHERE job_id = ? AND name = ? ORDER BY t")
@@ -787,9 +798,9 @@ pub(crate) async fn insert_points_and_jobs(
             let name = format!("{prefix}{letter}{number:03}r{replicate}");
             let run_dir = runs_dir.join(&name);
             let seed = study.job_seed(round as usize * 100_000 + idx, replicate);
-            sqlx::query(
+            let dem_job: i64 = sqlx::query(
                 "INSERT INTO jobs (study_id, point_id, replicate, name, seed, state, run_dir)
-                 VALUES (?, ?, ?, ?, ?, 'pending', ?)",
+                 VALUES (?, ?, ?, ?, ?, 'pending', ?) RETURNING id",
             )
             .bind(study_id)
             .bind(point_id)
@@ -797,9 +808,28 @@ pub(crate) async fn insert_points_and_jobs(
             .bind(&name)
             .bind(seed as i64)
             .bind(run_dir.display().to_string())
-            .execute(&mut *tx)
+            .fetch_one(&mut *tx)
             .await
-            .map_err(query_error("record a job"))?;
+            .map_err(query_error("record a job"))?
+            .get(0);
+            if study.cfd.is_some() && matches!(purpose, PointPurpose::Design) {
+                let name = format!("{name}-{CFD_STAGE}");
+                sqlx::query(
+                    "INSERT INTO jobs (study_id, point_id, replicate, name, seed, state, run_dir, stage, after_job_id)
+                     VALUES (?, ?, ?, ?, ?, 'pending', ?, ?, ?)",
+                )
+                .bind(study_id)
+                .bind(point_id)
+                .bind(replicate as i64)
+                .bind(&name)
+                .bind(seed as i64)
+                .bind(runs_dir.join(&name).display().to_string())
+                .bind(CFD_STAGE)
+                .bind(dem_job)
+                .execute(&mut *tx)
+                .await
+                .map_err(query_error("record a CFD stage"))?;
+            }
         }
     }
     Ok(())

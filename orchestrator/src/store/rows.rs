@@ -186,9 +186,21 @@ pub struct JobRow {
     /// What a batch scheduler last said about the current attempt ("PENDING
     /// (Priority)", "RUNNING on n1"); none for local jobs.
     pub scheduler_state: Option<String>,
+    /// `dem`, or `cfd` for a CFD stage chained after a DEM job.
+    pub stage: String,
+    /// The job this one waits for and reads its inputs from (CFD stages).
+    pub after_job_id: Option<i64>,
 }
 
+/// `jobs.stage` of a CFD stage.
+pub const CFD_STAGE: &str = "cfd";
+
 impl JobRow {
+    /// True for a CFD stage chained after a DEM job.
+    pub fn is_cfd(&self) -> bool {
+        self.stage == CFD_STAGE
+    }
+
     /// The state.
     pub fn state(&self) -> JobState {
         self.state.parse().unwrap_or(JobState::Pending)

@@ -58,6 +58,18 @@ pub struct StudyFile {
     /// Uncertain parameters propagated by Monte Carlo at the optimum.
     #[serde(default)]
     pub uncertainty: Option<UncertaintyFile>,
+    /// A CFD stage (OpenFOAM) after each DEM job: the air its particle stream drags.
+    #[serde(default)]
+    pub cfd: Option<CfdFile>,
+}
+
+/// The `cfd:` section: parameters of the OpenFOAM stage held constant.
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CfdFile {
+    /// CFD template parameters by name, SI units (`orch submit --dry-run` lists them).
+    #[serde(default)]
+    pub fixed: BTreeMap<String, f64>,
 }
 
 /// Minimise or maximise.

@@ -179,10 +179,34 @@ pub struct Study {
     pub metamodel: MetamodelConfig,
     /// Uncertain factors, if any.
     pub uncertainty: Option<UncertaintyConfig>,
+    /// The CFD stage chained after every DEM job, if any.
+    pub cfd: Option<CfdStage>,
     /// The file's text, kept in the store.
     pub file_text: String,
     /// SHA-256 of the file's text, hex.
     pub file_sha256: String,
+}
+
+/// A CFD stage (OpenFOAM, [`orch_adapters::openfoam`]) run after each DEM job of the
+/// study, fed by that job's responses.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CfdStage {
+    /// CFD parameters held constant; the rest keep their defaults.
+    pub fixed: BTreeMap<String, f64>,
+}
+
+impl CfdStage {
+    /// The CFD case: defaults with the fixed values applied.
+    pub fn case(&self) -> Case {
+        let mut parameters = ResolvedParameters::defaults(orch_adapters::openfoam::PARAMETERS);
+        for (name, value) in &self.fixed {
+            parameters.set(name, *value);
+        }
+        Case {
+            parameters,
+            seed: 0,
+        }
+    }
 }
 
 impl std::fmt::Debug for Study {
@@ -286,6 +310,36 @@ struct Checker<'a> {
 }
 
 impl Checker<'_> {
+    /// The `cfd:` section: every fixed value a CFD parameter within its range.
+    fn cfd_stage(&self, cfd: &file::CfdFile) -> Result<CfdStage, StudyError> {
+        let specs = orch_adapters::openfoam::PARAMETERS;
+        for (name, value) in &cfd.fixed {
+            let at = format!("cfd.fixed.{name}");
+            let Some(spec) = specs.iter().find(|s| s.name == name) else {
+                let names: Vec<&str> = specs.iter().map(|s| s.name).collect();
+                return Err(self.error(
+                    &at,
+                    format!(
+                        "`{name}` is not a parameter of the OpenFOAM stage; expected one of: {}",
+                        names.join(", ")
+                    ),
+                ));
+            };
+            if !(spec.min..=spec.max).contains(value) {
+                return Err(self.error(
+                    &at,
+                    format!(
+                        "`{name}` must lie within [{}, {}] {}, got {value}",
+                        spec.min, spec.max, spec.unit
+                    ),
+                ));
+            }
+        }
+        Ok(CfdStage {
+            fixed: cfd.fixed.clone(),
+        })
+    }
+
     fn error(&self, field: &str, message: impl Into<String>) -> StudyError {
         // Point at the field, or at the closest enclosing one that exists.
         let mut probe = field.to_string();
@@ -514,7 +568,18 @@ impl Checker<'_> {
         if file.replicates == 0 {
             return Err(self.error("replicates", "expected at least 1"));
         }
-        let known_responses = orch_granular::responses::response_names();
+        let cfd = match &file.cfd {
+            None => None,
+            Some(cfd) => Some(self.cfd_stage(cfd)?),
+        };
+        let mut known_responses = orch_granular::responses::response_names();
+        if cfd.is_some() {
+            known_responses.extend(
+                orch_adapters::openfoam::RESPONSES
+                    .iter()
+                    .map(|r| r.to_string()),
+            );
+        }
         for (i, response) in file.responses.iter().enumerate() {
             if !known_responses.contains(response) {
                 return Err(self.error(
@@ -646,6 +711,7 @@ impl Checker<'_> {
             rounds,
             metamodel,
             uncertainty,
+            cfd,
             file_text: text.to_string(),
             file_sha256: format!("{:x}", Sha256::digest(text.as_bytes())),
         };

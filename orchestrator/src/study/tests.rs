@@ -86,7 +86,7 @@ fn unknown_solver_is_refused() {
     let text = VALID.replace("solver: liggghts", "solver: edem");
     assert_eq!(
         error(&text),
-        "jobs/study.yaml:2:9: solver: unknown solver `edem`; expected one of: liggghts, native"
+        "jobs/study.yaml:2:9: solver: unknown solver `edem`; expected one of: liggghts, native, yade"
     );
 }
 
@@ -190,7 +190,7 @@ fn objectives_name_their_responses_and_need_one_form() {
     );
     assert_eq!(
         error(&with("objective: {response: flow, goal: maximise}\n")),
-        "jobs/study.yaml:18:23: objective.response: unknown response `flow`; expected one of: discharged_count, discharged_mass, discharge_rate, R1_mean, R2_mean, segregation_ratio, stream_radius, fine_fraction_outer_2, fine_fraction_outer_5, fine_fraction_outer_10, fine_fraction_outer_12"
+        "jobs/study.yaml:18:23: objective.response: unknown response `flow`; expected one of: discharged_count, discharged_mass, discharge_rate, R1_mean, R2_mean, segregation_ratio, stream_radius, exit_speed, fine_fraction_outer_2, fine_fraction_outer_5, fine_fraction_outer_10, fine_fraction_outer_12"
     );
     assert_eq!(
         error(&with("rounds: 2\n")),

@@ -1,0 +1,114 @@
+//! The CFD stage on real OpenFOAM, chained after native DEM jobs: the air each design
+//! point's particle stream drags along, computed from that point's DEM responses.
+
+use crate::support::{count, require_openfoam, solver_lock, text, Project};
+
+/// Two outlets on the native kernel, each followed by its OpenFOAM stage.
+const STREAM: &str = "\
+name: stream-air
+solver: native
+executor: {max_parallel: 2, time_limit: 3min, retries: 0}
+factors:
+  - {name: outlet_diameter, min: 0.018, max: 0.028, unit: m}
+fixed: {n_particles: 600, fill_time: 0.15, discharge_time: 0.6}
+design: {type: full_factorial, levels: 2}
+seed: 5
+responses: [discharge_rate, exit_speed, air_entrained_flow, air_ring_speed]
+cfd:
+  fixed: {end_time: 0.2, cells_across: 16, cells_down: 20}
+";
+
+#[test]
+fn each_design_point_s_stream_drives_an_openfoam_stage() {
+    if !require_openfoam() {
+        return;
+    }
+    let _lock = solver_lock();
+    let project = Project::new();
+    let file = project.write("stream.yaml", STREAM);
+    let output = project.run(&["submit", file.to_str().unwrap()]);
+    let stderr = text(&output.stderr);
+    assert_eq!(output.status.code(), Some(0), "{stderr}");
+    let status = project.status("stream-air");
+    assert_eq!(count(&status, "succeeded"), 4, "{status:#}");
+
+    let jobs = status["jobs"].as_array().unwrap();
+    let job = |name: &str| jobs.iter().find(|j| j["name"] == name).unwrap();
+    // Each CFD stage started after its DEM job ended, and read that job's stream.
+    let mut entrained = Vec::new();
+    for point in ["p000r0", "p001r0"] {
+        let (dem, cfd) = (job(point), job(&format!("{point}-cfd")));
+        let started = project.query(&format!(
+            "SELECT (SELECT MIN(at) FROM job_events e JOIN jobs j ON j.id = e.job_id WHERE j.name = '{point}-cfd' AND e.to_state = 'rendered') >= (SELECT finished_at FROM jobs WHERE name = '{point}')"
+        ));
+        assert_eq!(
+            started[0][0], "1",
+            "{point}-cfd rendered before {point} finished"
+        );
+        let fv_options = std::fs::read_to_string(
+            project
+                .project_dir()
+                .join(format!("runs/stream-air/{point}-cfd/constant/fvOptions")),
+        )
+        .unwrap();
+        let rate = dem["responses"]["discharge_rate"].as_f64().unwrap();
+        assert!(rate > 0.0);
+        assert!(
+            fv_options.contains("cellZone        stream;"),
+            "{fv_options}"
+        );
+        let flow = cfd["responses"]["air_entrained_flow"].as_f64().unwrap();
+        let ring = cfd["responses"]["air_ring_speed"].as_f64().unwrap();
+        eprintln!(
+            "{point}: D = {} m, {rate:.4} kg/s at {:.3} m/s -> air {flow:.3e} m^3/s out of the bottom, {ring:.4} m/s on the ring",
+            dem["factors"]["outlet_diameter"],
+            dem["responses"]["exit_speed"].as_f64().unwrap()
+        );
+        assert!(flow > 0.0 && ring > 0.0, "{cfd:#}");
+        entrained.push(flow);
+    }
+    // The wider outlet's heavier stream entrains more air.
+    assert!(entrained[1] > entrained[0], "{entrained:?}");
+    // Time series and responses are in SQLite, and orch status shows them.
+    let rows = project.query(
+        "SELECT COUNT(*) FROM series s JOIN jobs j ON j.id = s.job_id WHERE j.stage = 'cfd' AND s.name = 'air_entrained_flow'",
+    );
+    assert!(rows[0][0].parse::<usize>().unwrap() > 20, "{rows:?}");
+    let table = text(&project.run(&["status", "stream-air"]).stdout);
+    assert!(
+        table.contains("p001r0-cfd") && table.contains("air_entrained_flow"),
+        "{table}"
+    );
+}
+
+#[test]
+fn a_failed_dem_job_fails_its_cfd_stage_and_the_study_goes_on() {
+    if !require_openfoam() {
+        return;
+    }
+    let project = Project::new();
+    let study = STREAM
+        .replace("name: stream-air", "name: stream-fault")
+        .replace(
+            "- {name: outlet_diameter, min: 0.018, max: 0.028, unit: m}",
+            "- {name: timestep, min: 0.00002, max: 0.0008, unit: s}",
+        );
+    let file = project.write("fault.yaml", &study);
+    let output = project.run(&["submit", file.to_str().unwrap()]);
+    assert_ne!(output.status.code(), Some(0), "{}", text(&output.stderr));
+    let status = project.status("stream-fault");
+    let jobs = status["jobs"].as_array().unwrap();
+    let state = |name: &str| jobs.iter().find(|j| j["name"] == name).unwrap()["state"].clone();
+    assert_eq!(state("p000r0"), "succeeded");
+    assert_eq!(state("p000r0-cfd"), "succeeded");
+    assert_eq!(state("p001r0"), "failed");
+    let cfd = jobs.iter().find(|j| j["name"] == "p001r0-cfd").unwrap();
+    assert_eq!(cfd["state"], "failed");
+    assert!(
+        cfd["error"]
+            .as_str()
+            .unwrap()
+            .contains("its DEM stage p001r0 failed"),
+        "{cfd:#}"
+    );
+}

@@ -148,6 +148,12 @@ async fn submit(
             study.job_count(),
             study.adapter.name()
         );
+        if study.cfd.is_some() {
+            println!(
+                "  each design job followed by an OpenFOAM stage ({} CFD jobs)",
+                study.points.len() * study.replicates as usize
+            );
+        }
         for (i, point) in study.points.iter().enumerate() {
             let values: Vec<String> = study
                 .factors

@@ -289,6 +289,19 @@ mod tests {
     }
 
     #[test]
+    fn exit_speed_is_the_mass_weighted_downward_speed() {
+        // 3 g at 1 m/s and 1 g at 2 m/s: (3 · 1 + 1 · 2) / 4 = 1.25 m/s.
+        let mut slow = crossing(0, 1, 3e-3, 0.001, 0.1);
+        slow.velocity_m_per_s = [0.3, 0.0, -1.0];
+        let mut fast = crossing(1, 2, 1e-3, 0.002, 0.2);
+        fast.velocity_m_per_s = [0.0, 0.0, -2.0];
+        let r = DischargeResponses::compute(&[slow, fast], &ResponseOptions::default());
+        assert_relative_eq!(r.exit_speed_m_per_s.unwrap(), 1.25, max_relative = 1e-12);
+        let none = DischargeResponses::compute(&[], &ResponseOptions::default());
+        assert_eq!(none.exit_speed_m_per_s, None);
+    }
+
+    #[test]
     fn start_and_end_transients_are_excluded_from_the_rate() {
         // Slow trickle (first 10 %), steady 2 kg/s, slow tail (last 10 %).
         let mut crossings = Vec::new();

@@ -173,8 +173,8 @@ pub const RESPONSES: &[&str] = &["air_entrained_flow", "air_ring_speed"];
 pub const DEM_RESPONSES_USED: &[&str] = &["discharge_rate", "exit_speed", "stream_radius"];
 
 impl StreamInputs {
-    /// The inputs from a DEM case's parameters and its stored responses; `None` names
-    /// the first missing response.
+    /// The inputs from a DEM case's parameters and its stored responses; the error
+    /// names the first missing response.
     pub fn from_dem(
         dem_case: &Case,
         response: impl Fn(&str) -> Option<f64>,

@@ -383,23 +383,27 @@ fn render_template(
     template: &str,
     context: &Context,
 ) -> Result<String, RenderError> {
-    let describe = |error: tera::Error| {
-        let mut message = error.to_string();
-        let mut source = std::error::Error::source(&error);
-        while let Some(cause) = source {
-            message.push_str(": ");
-            message.push_str(&cause.to_string());
-            source = cause.source();
-        }
-        RenderError::Template {
-            template: template_name.to_string(),
-            message,
-        }
+    let describe = |error: tera::Error| RenderError::Template {
+        template: template_name.to_string(),
+        message: error_chain(&error),
     };
     let mut tera = Tera::default();
     tera.add_raw_template(template_name, template)
         .map_err(describe)?;
     tera.render(template_name, context).map_err(describe)
+}
+
+/// A Tera error with every cause, `: `-separated (Tera's own message rarely says which
+/// variable or line).
+pub(crate) fn error_chain(error: &tera::Error) -> String {
+    let mut message = error.to_string();
+    let mut source = std::error::Error::source(error);
+    while let Some(cause) = source {
+        message.push_str(": ");
+        message.push_str(&cause.to_string());
+        source = cause.source();
+    }
+    message
 }
 
 /// Writes a file into the run directory.

@@ -24,7 +24,7 @@ use tera::{Context, Tera};
 
 pub use post::{read_probes, read_surface_field_value, read_time_series_dirs};
 
-use crate::hopper::spec;
+use crate::hopper::{error_chain, spec};
 use crate::{Case, CommandSpec, ParameterSpec, ParseError, RenderError, Series};
 
 /// The case's files: path in the case directory and template text.
@@ -278,7 +278,7 @@ pub fn render(case: &Case, stream: &StreamInputs, run_dir: &Path) -> Result<(), 
             .and_then(|_| tera.render(&name, &context))
             .map_err(|e| RenderError::Template {
                 template: name.clone(),
-                message: describe(&e),
+                message: error_chain(&e),
             })?;
         let path = run_dir.join(file);
         if let Some(parent) = path.parent() {
@@ -293,17 +293,6 @@ pub fn render(case: &Case, stream: &StreamInputs, run_dir: &Path) -> Result<(), 
         })?;
     }
     Ok(())
-}
-
-fn describe(error: &tera::Error) -> String {
-    let mut message = error.to_string();
-    let mut source = std::error::Error::source(error);
-    while let Some(cause) = source {
-        message.push_str(": ");
-        message.push_str(&cause.to_string());
-        source = cause.source();
-    }
-    message
 }
 
 /// The command: the rendered `Allrun` (blockMesh, topoSet, pimpleFoam; with

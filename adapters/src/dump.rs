@@ -188,10 +188,7 @@ impl<L: Iterator<Item = std::io::Result<String>>> NumberedLines<'_, L> {
                 self.number += 1;
                 Ok(Some(line))
             }
-            Some(Err(source)) => Err(ParseError::Read {
-                path: self.path.to_path_buf(),
-                source,
-            }),
+            Some(Err(source)) => Err(ParseError::read(self.path)(source)),
         }
     }
 
@@ -203,11 +200,11 @@ impl<L: Iterator<Item = std::io::Result<String>>> NumberedLines<'_, L> {
     fn required(&mut self, what: &str) -> Result<String, ParseError> {
         match self.next_line()? {
             Some(line) => Ok(line),
-            None => Err(ParseError::Malformed {
-                path: self.path.to_path_buf(),
-                line: self.number + 1,
-                message: format!("file ends where {what} was expected (truncated dump?)"),
-            }),
+            None => Err(ParseError::malformed(
+                self.path,
+                self.number + 1,
+                format!("file ends where {what} was expected (truncated dump?)"),
+            )),
         }
     }
 
@@ -227,11 +224,7 @@ impl<L: Iterator<Item = std::io::Result<String>>> NumberedLines<'_, L> {
     }
 
     fn malformed(&self, message: String) -> ParseError {
-        ParseError::Malformed {
-            path: self.path.to_path_buf(),
-            line: self.number,
-            message,
-        }
+        ParseError::malformed(self.path, self.number, message)
     }
 }
 

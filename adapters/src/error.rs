@@ -1,6 +1,7 @@
 //! Errors of rendering and parsing, each naming the file involved.
 
-use std::path::PathBuf;
+use std::io::BufRead;
+use std::path::{Path, PathBuf};
 
 /// Why a case could not be rendered.
 #[derive(Debug, thiserror::Error)]
@@ -49,4 +50,34 @@ pub enum ParseError {
         /// What was expected and what was found.
         message: String,
     },
+}
+
+impl ParseError {
+    /// The content of `path` is wrong at `line` (1-based).
+    pub fn malformed(path: &Path, line: usize, message: impl Into<String>) -> ParseError {
+        ParseError::Malformed {
+            path: path.to_path_buf(),
+            line,
+            message: message.into(),
+        }
+    }
+
+    /// Maps an I/O error on `path` to [`ParseError::Read`].
+    pub fn read(path: &Path) -> impl FnOnce(std::io::Error) -> ParseError + '_ {
+        move |source| ParseError::Read {
+            path: path.to_path_buf(),
+            source,
+        }
+    }
+}
+
+/// The lines of `reader` with their 1-based numbers; a failed read names `path`.
+pub(crate) fn numbered_lines<'a, R: BufRead + 'a>(
+    reader: R,
+    path: &'a Path,
+) -> impl Iterator<Item = Result<(usize, String), ParseError>> + 'a {
+    reader
+        .lines()
+        .enumerate()
+        .map(move |(index, line)| line.map(|l| (index + 1, l)).map_err(ParseError::read(path)))
 }

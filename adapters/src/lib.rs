@@ -26,6 +26,7 @@ pub mod yade;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
+pub(crate) use error::numbered_lines;
 pub use error::{ParseError, RenderError};
 pub use params::{ParameterSpec, ResolvedParameters};
 
@@ -140,10 +141,8 @@ pub(crate) fn open_in_run_dir(
     file: &str,
 ) -> Result<(std::io::BufReader<std::fs::File>, PathBuf), ParseError> {
     let path = in_run_dir(run_dir, file);
-    match std::fs::File::open(&path) {
-        Ok(f) => Ok((std::io::BufReader::new(f), path)),
-        Err(source) => Err(ParseError::Read { path, source }),
-    }
+    let file = std::fs::File::open(&path).map_err(ParseError::read(&path))?;
+    Ok((std::io::BufReader::new(file), path))
 }
 
 /// The path of a file in a run directory, for messages.

@@ -7,7 +7,7 @@
 use std::io::BufRead;
 use std::path::Path;
 
-use crate::ParseError;
+use crate::{numbered_lines, ParseError};
 
 /// What the log says about a run.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -29,18 +29,17 @@ pub fn read_log<R: BufRead>(reader: R, path: &Path) -> Result<LogSummary, ParseE
     let mut summary = LogSummary::default();
     let mut columns: Option<Vec<String>> = None;
     let mut previous_row: Option<(u64, f64)> = None;
-    for (index, line) in reader.lines().enumerate() {
-        let line = line.map_err(|source| ParseError::Read {
-            path: path.to_path_buf(),
-            source,
-        })?;
+    for numbered in numbered_lines(reader, path) {
+        let (number, line) = numbered?;
         let trimmed = line.trim();
         if let Some(rest) = trimmed.strip_prefix("Loop time of ") {
             summary.loop_time_s += parse_loop_line(rest)
-                .ok_or_else(|| ParseError::Malformed {
-                    path: path.to_path_buf(),
-                    line: index + 1,
-                    message: format!("cannot read the loop line `{trimmed}`"),
+                .ok_or_else(|| {
+                    ParseError::malformed(
+                        path,
+                        number,
+                        format!("cannot read the loop line `{trimmed}`"),
+                    )
                 })?
                 .0;
             summary.steps += parse_loop_line(rest).map(|l| l.1).unwrap_or(0);

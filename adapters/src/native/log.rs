@@ -6,7 +6,7 @@
 use std::io::BufRead;
 use std::path::Path;
 
-use crate::ParseError;
+use crate::{numbered_lines, ParseError};
 
 /// What the native log says about a run.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -28,26 +28,19 @@ pub const THERMO_HEADER: &str = "step time_s particles kinetic_energy_J discharg
 
 /// Reads a native log; `path` names the file in errors.
 pub fn read_log<R: BufRead>(reader: R, path: &Path) -> Result<NativeLog, ParseError> {
-    let malformed = |line: usize, message: String| ParseError::Malformed {
-        path: path.to_path_buf(),
-        line,
-        message,
-    };
+    let malformed = |line: usize, message: String| ParseError::malformed(path, line, message);
     let mut log = NativeLog::default();
     let mut in_table = false;
     let mut finished = false;
     let mut last_line = 0;
-    for (index, line) in reader.lines().enumerate() {
-        let line = line.map_err(|source| ParseError::Read {
-            path: path.to_path_buf(),
-            source,
-        })?;
-        last_line = index + 1;
+    for numbered in numbered_lines(reader, path) {
+        let (number, line) = numbered?;
+        last_line = number;
         let trimmed = line.trim();
         if trimmed == THERMO_HEADER {
             in_table = true;
         } else if let Some(error) = trimmed.strip_prefix("ERROR: ") {
-            return Err(malformed(index + 1, format!("the run failed: {error}")));
+            return Err(malformed(number, format!("the run failed: {error}")));
         } else if let Some(rest) = trimmed.strip_prefix("Loop time of ") {
             let words: Vec<&str> = rest.split_whitespace().collect();
             // <s> s on <n> threads for <steps> steps with <p> particle-steps
@@ -61,7 +54,7 @@ pub fn read_log<R: BufRead>(reader: R, path: &Path) -> Result<NativeLog, ParseEr
                 })
                 .flatten();
             let (seconds, steps, particle_steps) = parsed.ok_or_else(|| {
-                malformed(index + 1, format!("cannot read the loop line `{trimmed}`"))
+                malformed(number, format!("cannot read the loop line `{trimmed}`"))
             })?;
             log.loop_time_s = seconds;
             log.steps = steps;
@@ -78,7 +71,7 @@ pub fn read_log<R: BufRead>(reader: R, path: &Path) -> Result<NativeLog, ParseEr
                 }
                 _ => {
                     return Err(malformed(
-                        index + 1,
+                        number,
                         format!("expected a thermo row ({THERMO_HEADER}), found `{trimmed}`"),
                     ))
                 }

@@ -11,7 +11,7 @@
 mod log;
 
 use std::io::BufRead;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use orch_granular::Crossing;
 
@@ -19,8 +19,8 @@ pub use log::{read_log, NativeLog, THERMO_HEADER};
 
 use crate::hopper;
 use crate::{
-    open_in_run_dir, Case, CommandSpec, Observations, ParameterSpec, ParseError, RenderError,
-    Series, SolverAdapter,
+    numbered_lines, open_in_run_dir, Case, CommandSpec, Observations, ParameterSpec, ParseError,
+    RenderError, Series, SolverAdapter,
 };
 
 /// The native kernel's adapter.
@@ -118,18 +118,11 @@ impl SolverAdapter for Native {
 
 /// Reads the kernel's crossings CSV, in time order.
 pub fn read_crossings<R: BufRead>(reader: R, path: &Path) -> Result<Vec<Crossing>, ParseError> {
-    let malformed = |line: usize, message: String| ParseError::Malformed {
-        path: PathBuf::from(path),
-        line,
-        message,
-    };
+    let malformed = |line: usize, message: String| ParseError::malformed(path, line, message);
     let mut crossings = Vec::new();
-    for (index, line) in reader.lines().enumerate() {
-        let line = line.map_err(|source| ParseError::Read {
-            path: path.to_path_buf(),
-            source,
-        })?;
-        if index == 0 {
+    for numbered in numbered_lines(reader, path) {
+        let (number, line) = numbered?;
+        if number == 1 {
             if line.trim() != CROSSINGS_HEADER {
                 return Err(malformed(
                     1,
@@ -147,7 +140,7 @@ pub fn read_crossings<R: BufRead>(reader: R, path: &Path) -> Result<Vec<Crossing
             .filter(|n| n.len() == 11 && n.iter().all(|v| v.is_finite()))
             .ok_or_else(|| {
                 malformed(
-                    index + 1,
+                    number,
                     format!("expected 11 finite numbers ({CROSSINGS_HEADER}), found `{line}`"),
                 )
             })?;

@@ -16,41 +16,37 @@
 use std::io::BufRead;
 use std::path::{Path, PathBuf};
 
-use crate::ParseError;
+use crate::{numbered_lines, ParseError};
 
-fn malformed(path: &Path, line: usize, message: String) -> ParseError {
-    ParseError::Malformed {
-        path: path.to_path_buf(),
-        line,
-        message,
-    }
+/// A `#`-commented file: its header lines and its data rows as `(1-based line, text)`,
+/// both trimmed; an error when it has no data row.
+struct Commented {
+    header: Vec<String>,
+    rows: Vec<(usize, String)>,
 }
 
-/// The data rows of a `#`-commented file as `(1-based line, text)`; an error when it
-/// has none.
-fn data_rows<R: BufRead>(reader: R, path: &Path) -> Result<Vec<(usize, String)>, ParseError> {
-    let mut rows = Vec::new();
-    let mut header = Vec::new();
-    for (index, line) in reader.lines().enumerate() {
-        let line = line.map_err(|source| ParseError::Read {
-            path: path.to_path_buf(),
-            source,
-        })?;
+fn read_commented<R: BufRead>(reader: R, path: &Path) -> Result<Commented, ParseError> {
+    let mut file = Commented {
+        header: Vec::new(),
+        rows: Vec::new(),
+    };
+    for numbered in numbered_lines(reader, path) {
+        let (number, line) = numbered?;
         let trimmed = line.trim();
         if trimmed.starts_with('#') {
-            header.push(trimmed.to_string());
+            file.header.push(trimmed.to_string());
         } else if !trimmed.is_empty() {
-            rows.push((index + 1, trimmed.to_string()));
+            file.rows.push((number, trimmed.to_string()));
         }
     }
-    if rows.is_empty() {
-        return Err(malformed(
+    if file.rows.is_empty() {
+        return Err(ParseError::malformed(
             path,
-            header.len().max(1),
-            "no data rows after the header: the solver wrote no time step".to_string(),
+            file.header.len().max(1),
+            "no data rows after the header: the solver wrote no time step",
         ));
     }
-    Ok(rows)
+    Ok(file)
 }
 
 fn number(path: &Path, line: usize, text: &str, what: &str) -> Result<f64, ParseError> {
@@ -58,7 +54,7 @@ fn number(path: &Path, line: usize, text: &str, what: &str) -> Result<f64, Parse
         .ok()
         .filter(|v| v.is_finite())
         .ok_or_else(|| {
-            malformed(
+            ParseError::malformed(
                 path,
                 line,
                 format!("expected {what} (a finite number), found `{text}`"),
@@ -71,12 +67,13 @@ pub fn read_surface_field_value<R: BufRead>(
     reader: R,
     path: &Path,
 ) -> Result<Vec<(f64, f64)>, ParseError> {
-    data_rows(reader, path)?
+    read_commented(reader, path)?
+        .rows
         .into_iter()
         .map(|(line, text)| {
             let fields: Vec<&str> = text.split_whitespace().collect();
             if fields.len() != 2 {
-                return Err(malformed(
+                return Err(ParseError::malformed(
                     path,
                     line,
                     format!("expected `time value`, found `{text}`"),
@@ -96,26 +93,15 @@ pub type ProbeRows = Vec<(f64, Vec<[f64; 3]>)>;
 /// Reads a vector probes file: per row the time and one `(x y z)` per probe, as many
 /// as its `# Probe k (...)` header lines announce.
 pub fn read_probes<R: BufRead>(reader: R, path: &Path) -> Result<ProbeRows, ParseError> {
-    let text: Vec<String> =
-        reader
-            .lines()
-            .collect::<Result<_, _>>()
-            .map_err(|source| ParseError::Read {
-                path: path.to_path_buf(),
-                source,
-            })?;
-    let probes = text
-        .iter()
-        .filter(|l| l.trim_start().starts_with("# Probe "))
-        .count();
+    let Commented { header, rows } = read_commented(reader, path)?;
+    let probes = header.iter().filter(|l| l.starts_with("# Probe ")).count();
     if probes == 0 {
-        return Err(malformed(
+        return Err(ParseError::malformed(
             path,
             1,
-            "no `# Probe k (x y z)` header lines: not a probes file".to_string(),
+            "no `# Probe k (x y z)` header lines: not a probes file",
         ));
     }
-    let rows = data_rows(std::io::Cursor::new(text.join("\n")), path)?;
     rows.into_iter()
         .map(|(line, row)| {
             let (time, rest) = row.split_once(char::is_whitespace).unwrap_or((&row, ""));
@@ -124,11 +110,11 @@ pub fn read_probes<R: BufRead>(reader: R, path: &Path) -> Result<ProbeRows, Pars
             let mut rest = rest.trim();
             while let Some(open) = rest.strip_prefix('(') {
                 let Some((inside, after)) = open.split_once(')') else {
-                    return Err(malformed(path, line, format!("a vector is not closed in `{row}`")));
+                    return Err(ParseError::malformed(path, line, format!("a vector is not closed in `{row}`")));
                 };
                 let parts: Vec<&str> = inside.split_whitespace().collect();
                 if parts.len() != 3 {
-                    return Err(malformed(
+                    return Err(ParseError::malformed(
                         path,
                         line,
                         format!("expected a vector `(x y z)`, found `({inside})`"),
@@ -142,7 +128,7 @@ pub fn read_probes<R: BufRead>(reader: R, path: &Path) -> Result<ProbeRows, Pars
                 rest = after.trim_start();
             }
             if vectors.len() != probes || !rest.is_empty() {
-                return Err(malformed(
+                return Err(ParseError::malformed(
                     path,
                     line,
                     format!(
@@ -163,10 +149,7 @@ pub fn read_time_series_dirs<T>(
     file: &str,
     read: impl Fn(std::io::BufReader<std::fs::File>, &Path) -> Result<Vec<(f64, T)>, ParseError>,
 ) -> Result<Vec<(f64, T)>, ParseError> {
-    let entries = std::fs::read_dir(dir).map_err(|source| ParseError::Read {
-        path: dir.to_path_buf(),
-        source,
-    })?;
+    let entries = std::fs::read_dir(dir).map_err(ParseError::read(dir))?;
     let mut starts: Vec<(f64, PathBuf)> = entries
         .filter_map(|e| e.ok())
         .filter_map(|e| {
@@ -175,10 +158,10 @@ pub fn read_time_series_dirs<T>(
         })
         .collect();
     if starts.is_empty() {
-        return Err(malformed(
+        return Err(ParseError::malformed(
             dir,
             0,
-            "no <startTime> directory: the function object wrote nothing".to_string(),
+            "no <startTime> directory: the function object wrote nothing",
         ));
     }
     starts.sort_by(|a, b| a.0.total_cmp(&b.0));
@@ -187,10 +170,7 @@ pub fn read_time_series_dirs<T>(
         let path = start_dir.join(file);
         let reader = std::fs::File::open(&path)
             .map(std::io::BufReader::new)
-            .map_err(|source| ParseError::Read {
-                path: path.clone(),
-                source,
-            })?;
+            .map_err(ParseError::read(&path))?;
         rows.retain(|(t, _)| *t < start);
         rows.extend(read(reader, &path)?);
     }

@@ -9,7 +9,7 @@
 use std::io::BufRead;
 use std::path::Path;
 
-use crate::ParseError;
+use crate::{numbered_lines, ParseError};
 
 /// Start of the summary line.
 pub const SUMMARY_PREFIX: &str = "ORCH SUMMARY";
@@ -29,18 +29,10 @@ pub struct YadeSummary {
 
 /// Reads `log.yade`; a log without its summary line is a run that did not finish.
 pub fn read_log<R: BufRead>(reader: R, path: &Path) -> Result<YadeSummary, ParseError> {
-    let malformed = |line: usize, message: String| ParseError::Malformed {
-        path: path.to_path_buf(),
-        line,
-        message,
-    };
     let mut last_line = 0;
-    for (index, line) in reader.lines().enumerate() {
-        let line = line.map_err(|source| ParseError::Read {
-            path: path.to_path_buf(),
-            source,
-        })?;
-        last_line = index + 1;
+    for numbered in numbered_lines(reader, path) {
+        let (number, line) = numbered?;
+        last_line = number;
         let Some(rest) = line.strip_prefix(SUMMARY_PREFIX) else {
             continue;
         };
@@ -50,8 +42,9 @@ pub fn read_log<R: BufRead>(reader: R, path: &Path) -> Result<YadeSummary, Parse
                 .and_then(|v| v.parse::<f64>().ok())
                 .filter(|v| v.is_finite() && *v >= 0.0)
                 .ok_or_else(|| {
-                    malformed(
-                        index + 1,
+                    ParseError::malformed(
+                        path,
+                        number,
                         format!("expected `{key}=<non-negative number>` in `{line}`"),
                     )
                 })
@@ -63,7 +56,8 @@ pub fn read_log<R: BufRead>(reader: R, path: &Path) -> Result<YadeSummary, Parse
             particles_left: value("particles_left")? as u64,
         });
     }
-    Err(malformed(
+    Err(ParseError::malformed(
+        path,
         last_line.max(1),
         format!("no `{SUMMARY_PREFIX}` line: the YADE script did not finish"),
     ))

@@ -142,8 +142,9 @@ async fn drive_with<E: Executor>(
             let launched: Vec<&JobRow> = jobs.iter().filter(|j| is_launched(j.state())).collect();
             driver.poll(&launched).await?;
         }
-        driver.settle_orphaned_stages().await?;
         let jobs = store.jobs(study_id).await?;
+        // Stages settled here are still pending in `jobs`, so not ready: next tick sees them.
+        driver.settle_orphaned_stages(&jobs).await?;
         let state_of: HashMap<i64, JobState> = jobs.iter().map(|j| (j.id, j.state())).collect();
         let ready = |job: &JobRow| {
             job.after_job_id
@@ -254,8 +255,7 @@ impl<E: Executor> Driver<'_, E> {
 
     /// CFD stages whose DEM job failed or was cancelled follow it: nothing can drive
     /// their air. (`orch resume` reopens both.)
-    async fn settle_orphaned_stages(&mut self) -> Result<(), DriverError> {
-        let jobs = self.store.jobs(self.study_id).await?;
+    async fn settle_orphaned_stages(&mut self, jobs: &[JobRow]) -> Result<(), DriverError> {
         let by_id: HashMap<i64, &JobRow> = jobs.iter().map(|j| (j.id, j)).collect();
         for job in jobs.iter().filter(|j| j.state() == JobState::Pending) {
             let Some(dem) = job.after_job_id.and_then(|id| by_id.get(&id)) else {

@@ -169,9 +169,6 @@ pub struct StreamInputs {
 /// Responses of the CFD stage.
 pub const RESPONSES: &[&str] = &["air_entrained_flow", "air_ring_speed"];
 
-/// DEM responses the CFD stage reads (besides DEM parameters).
-pub const DEM_RESPONSES_USED: &[&str] = &["discharge_rate", "exit_speed", "stream_radius"];
-
 impl StreamInputs {
     /// The inputs from a DEM case's parameters and its stored responses; the error
     /// names the first missing response.

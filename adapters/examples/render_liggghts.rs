@@ -1,8 +1,8 @@
 //! Renders the default LIGGGHTS hopper deck into a directory, for trying it by hand:
 //! `cargo run -p orch-adapters --example render_liggghts -- DIR [name=value ...]`.
 
-use orch_adapters::liggghts::{Liggghts, PARAMETERS};
-use orch_adapters::{Case, ResolvedParameters, SolverAdapter};
+use orch_adapters::hopper::{Hopper, PARAMETERS};
+use orch_adapters::{liggghts, Case, ResolvedParameters, Simulation};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args = std::env::args().skip(1);
@@ -16,17 +16,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         parameters.set(name, value.parse()?);
     }
     std::fs::create_dir_all(&dir)?;
-    let adapter = Liggghts;
+    let simulation = Simulation::new(&Hopper, &liggghts::SOLVER).ok_or("no hopper template")?;
     let case = Case {
         parameters,
         seed: 1,
     };
-    adapter.render(
-        &case,
-        adapter.default_template_name(),
-        adapter.default_template(),
-        &dir,
-    )?;
+    simulation.render(&case, &simulation.default_template(), &dir)?;
     println!("rendered into {}", dir.display());
     Ok(())
 }

@@ -1,40 +1,162 @@
-//! The conical hopper case that every DEM adapter renders: its parameters (SI, with the
-//! verified LIGGGHTS deck's values as defaults), the values derived from them that the
-//! templates use (fill region, sensor and sink planes, step counts, seeds), the checks
-//! a case must pass, and the wall meshes written beside each deck.
+//! The conical hopper, the first [`Equipment`]: its parameters (SI, with the verified
+//! LIGGGHTS deck's values as defaults), the values derived from them that the templates
+//! use (fill region, sensor and sink planes, step counts, seeds), the checks a case must
+//! pass, the wall meshes written beside each deck, and the discharge responses computed
+//! from the particles that crossed its sensor plane (rate, radial segregation,
+//! outer-layer fines, exit speed).
 //!
-//! LIGGGHTS and the native kernel render the same context, so one design point is the
-//! same physical case on either solver.
+//! Every solver renders the same context, so one design point is the same physical case
+//! on LIGGGHTS, YADE or the native kernel. The hopper's response names live here and
+//! nowhere else in `orch`.
 
 use std::path::Path;
 
-use orch_granular::HopperGeometry;
-use tera::{Context, Tera};
+use orch_granular::responses::{cumulative_mass_series, mass_flow_series};
+use orch_granular::{DischargeResponses, HopperGeometry, ResponseOptions};
+use tera::Context;
 
+use crate::equipment::{response, Equipment, ResponseSpec, SensorPlane};
+use crate::params::spec;
 use crate::primes::prime_seed;
-use crate::{in_run_dir, Case, ParameterSpec, RenderError};
+use crate::simulation::write;
+use crate::{Case, Observations, ParameterSpec, RenderError, RunResults, Series};
+
+/// The hopper equipment.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Hopper;
+
+/// Width of the bins of the stored mass-flow-rate series, s.
+pub const MASS_FLOW_BIN_S: f64 = 0.02;
+
+/// The hopper's scalar responses, from the particles that crossed its sensor plane.
+pub static RESPONSES: &[ResponseSpec] = &[
+    response("discharged_count", "-", "particles that crossed the sensor plane"),
+    response("discharged_mass", "kg", "mass that crossed the sensor plane"),
+    response(
+        "discharge_rate",
+        "kg/s",
+        "steady discharge rate: least-squares slope of the discharged mass between 20 % and 80 % of the total",
+    ),
+    response("R1_mean", "m", "mean radial distance of fine particles at the sensor plane"),
+    response("R2_mean", "m", "mean radial distance of coarse particles at the sensor plane"),
+    response(
+        "segregation_ratio",
+        "-",
+        "R1_mean / R2_mean; below 1 the fines are nearer the axis",
+    ),
+    response("stream_radius", "m", "largest radial distance of any crossing"),
+    response(
+        "exit_speed",
+        "m/s",
+        "mass-weighted mean downward speed at the sensor plane",
+    ),
+    response(
+        "fine_fraction_outer_2",
+        "-",
+        "mass fraction of fines in the outer 2 % of the stream radius",
+    ),
+    response(
+        "fine_fraction_outer_5",
+        "-",
+        "mass fraction of fines in the outer 5 % of the stream radius",
+    ),
+    response(
+        "fine_fraction_outer_10",
+        "-",
+        "mass fraction of fines in the outer 10 % of the stream radius",
+    ),
+    response(
+        "fine_fraction_outer_12",
+        "-",
+        "mass fraction of fines in the outer 12 % of the stream radius",
+    ),
+];
+
+/// The hopper's series.
+pub static SERIES: &[ResponseSpec] = &[
+    response(
+        "mass_flow_rate",
+        "kg/s",
+        "mass crossing the sensor plane per 0.02 s bin, over time",
+    ),
+    response(
+        "discharged_mass",
+        "kg",
+        "cumulative mass that crossed the sensor plane, over time",
+    ),
+    response(
+        "kinetic_energy",
+        "J",
+        "kinetic energy of all particles, over time (LIGGGHTS and native)",
+    ),
+];
+
+impl Equipment for Hopper {
+    fn name(&self) -> &'static str {
+        "hopper"
+    }
+
+    fn description(&self) -> &'static str {
+        "conical hopper (B-spline cone profile, optional internal valve, vertical vibration) discharging a bidisperse mixture through a sensor plane"
+    }
+
+    fn parameters(&self) -> &'static [ParameterSpec] {
+        PARAMETERS
+    }
+
+    fn responses(&self) -> &'static [ResponseSpec] {
+        RESPONSES
+    }
+
+    fn series(&self) -> &'static [ResponseSpec] {
+        SERIES
+    }
+
+    fn headline_responses(&self) -> &'static [&'static str] {
+        &["discharge_rate", "segregation_ratio"]
+    }
+
+    fn check(&self, case: &Case) -> Result<(), RenderError> {
+        check(case)
+    }
+
+    fn context(&self, case: &Case) -> Context {
+        context(case)
+    }
+
+    fn write_geometry(&self, case: &Case, run_dir: &Path) -> Result<(), RenderError> {
+        write_meshes(case, run_dir)
+    }
+
+    fn sensor(&self, case: &Case) -> SensorPlane {
+        SensorPlane {
+            height_m: sensor_z_m(case),
+        }
+    }
+
+    fn results(&self, _case: &Case, observations: &Observations) -> RunResults {
+        let crossings = &observations.crossings;
+        let responses = DischargeResponses::compute(crossings, &ResponseOptions::default());
+        let mut series = vec![
+            Series {
+                name: "mass_flow_rate".to_string(),
+                points: mass_flow_series(crossings, MASS_FLOW_BIN_S),
+            },
+            Series {
+                name: "discharged_mass".to_string(),
+                points: cumulative_mass_series(crossings),
+            },
+        ];
+        series.extend(observations.series.iter().cloned());
+        RunResults {
+            responses: responses.named(),
+            series,
+        }
+    }
+}
 
 /// Half-thickness of the band around the sensor plane that LIGGGHTS dumps, m.
 pub const SENSOR_BAND_M: f64 = 0.005;
-
-/// A parameter spec, for the adapters' tables.
-pub(crate) const fn spec(
-    name: &'static str,
-    default: f64,
-    unit: &'static str,
-    min: f64,
-    max: f64,
-    description: &'static str,
-) -> ParameterSpec {
-    ParameterSpec {
-        name,
-        default,
-        unit,
-        min,
-        max,
-        description,
-    }
-}
 
 /// Parameters of the hopper template; defaults are the verified deck of
 /// `shared/solvers/README.md` (3000 glass-like spheres of 4 and 2 mm, 24 mm outlet).
@@ -361,57 +483,6 @@ pub fn check(case: &Case) -> Result<(), RenderError> {
     Ok(())
 }
 
-/// Renders a hopper case into `run_dir`: checks it, writes the solver's input file
-/// `input_file` from the Tera `template` (named `template_name` in messages) with
-/// [`context`], and the STL walls ([`write_meshes`]).
-pub fn render(
-    case: &Case,
-    template_name: &str,
-    template: &str,
-    run_dir: &Path,
-    input_file: &str,
-) -> Result<(), RenderError> {
-    check(case)?;
-    let text = render_template(template_name, template, &context(case))?;
-    write_meshes(case, run_dir)?;
-    write(run_dir, input_file, &text)
-}
-
-/// Renders a Tera template given as text, naming it in errors with every cause.
-fn render_template(
-    template_name: &str,
-    template: &str,
-    context: &Context,
-) -> Result<String, RenderError> {
-    let describe = |error: tera::Error| RenderError::Template {
-        template: template_name.to_string(),
-        message: error_chain(&error),
-    };
-    let mut tera = Tera::default();
-    tera.add_raw_template(template_name, template)
-        .map_err(describe)?;
-    tera.render(template_name, context).map_err(describe)
-}
-
-/// A Tera error with every cause, `: `-separated (Tera's own message rarely says which
-/// variable or line).
-pub(crate) fn error_chain(error: &tera::Error) -> String {
-    let mut message = error.to_string();
-    let mut source = std::error::Error::source(error);
-    while let Some(cause) = source {
-        message.push_str(": ");
-        message.push_str(&cause.to_string());
-        source = cause.source();
-    }
-    message
-}
-
-/// Writes a file into the run directory.
-pub(crate) fn write(run_dir: &Path, file: &str, text: &str) -> Result<(), RenderError> {
-    let path = in_run_dir(run_dir, file);
-    std::fs::write(&path, text).map_err(|source| RenderError::Write { path, source })
-}
-
 /// Writes the walls as ASCII STL into `run_dir`: `hopper.stl`, `plug.stl` (closes the
 /// outlet while filling), `valve.stl` when the case has a valve, and `sink.stl` (the
 /// plane that removes particles), and creates `post/` for the solver's output.
@@ -448,5 +519,54 @@ pub(crate) fn case_with(overrides: &[(&str, f64)]) -> Case {
     Case {
         parameters,
         seed: 1,
+    }
+}
+
+/// The hopper on `solver`, for the solvers' tests.
+#[cfg(test)]
+pub(crate) fn on(solver: &'static crate::DemSolver) -> crate::Simulation {
+    crate::Simulation::new(&Hopper, solver).unwrap()
+}
+
+/// Renders `case` with `solver`'s default hopper template into `run_dir`; returns the
+/// deck's text.
+#[cfg(test)]
+pub(crate) fn render_default(
+    solver: &'static crate::DemSolver,
+    case: &Case,
+    run_dir: &Path,
+) -> String {
+    let simulation = on(solver);
+    simulation
+        .render(case, &simulation.default_template(), run_dir)
+        .unwrap();
+    std::fs::read_to_string(run_dir.join(simulation.deck_file())).unwrap()
+}
+
+/// What `solver`'s parser reads of a hopper run in `run_dir`.
+#[cfg(test)]
+pub(crate) fn observe(
+    solver: &'static crate::DemSolver,
+    case: &Case,
+    run_dir: &Path,
+) -> Result<Observations, crate::ParseError> {
+    (solver.parse)(case, &Hopper.sensor(case), run_dir)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_response_table_names_every_response_the_hopper_computes() {
+        let table: Vec<&str> = RESPONSES.iter().map(|r| r.name).collect();
+        assert_eq!(table, orch_granular::responses::response_names());
+    }
+
+    #[test]
+    fn headline_responses_are_responses() {
+        for name in Hopper.headline_responses() {
+            assert!(RESPONSES.iter().any(|r| r.name == *name), "{name}");
+        }
     }
 }

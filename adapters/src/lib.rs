@@ -1,19 +1,21 @@
-//! Solver adapters for `orch`.
+//! Equipment, solvers and stages for `orch`: the seam between *what* is simulated and
+//! *which program* simulates it.
 //!
-//! Each DEM solver (LIGGGHTS, YADE and orch's native kernel) sits behind
-//! one trait, [`SolverAdapter`], that does three things for a fully resolved [`Case`]:
+//! - An [`Equipment`] (the [`hopper::Hopper`] first) owns its parameters
+//!   ([`ParameterSpec`]), checks, template context, geometry files, sensor plane and
+//!   responses ([`ResponseSpec`]).
+//! - A [`DemSolver`] (LIGGGHTS, YADE, the native kernel) is a descriptor: deck
+//!   extension, one template per equipment, the command ([`CommandSpec`]) and a parser
+//!   of its output into [`Observations`], failing with file and line on bad input.
+//! - A [`Simulation`] pairs the two: render, command, results.
+//! - A [`Stage`] (OpenFOAM's stream air, [`openfoam::StreamAir`]) is a job that follows
+//!   another and reads its case and responses ([`Upstream`]).
 //!
-//! 1. **render** the solver's input into a run directory (a Tera template plus the
-//!    geometry files `orch-granular` generates),
-//! 2. **describe the command** that runs it ([`CommandSpec`]), which an executor then
-//!    launches locally or through Slurm, and
-//! 3. **parse** what the solver wrote into [`Observations`] (the particles that crossed
-//!    the sensor plane, solver statistics), failing with file and line on bad input.
-//!
-//! Adapters own their templates' variables ([`ParameterSpec`]) so a study file can be
-//! checked against them before anything runs.
+//! The orchestrator knows equipment, solvers and stages only through these types and
+//! the registries [`EQUIPMENT`], [`SOLVERS`] and [`STAGES`].
 
 pub mod dump;
+pub mod equipment;
 mod error;
 pub mod hopper;
 pub mod liggghts;
@@ -21,14 +23,24 @@ pub mod native;
 pub mod openfoam;
 mod params;
 mod primes;
+pub mod simulation;
+pub mod solver;
+pub mod stage;
 pub mod yade;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
+pub use equipment::{
+    equipment_for, equipment_names, Equipment, ResponseSpec, SensorPlane, DEFAULT_EQUIPMENT,
+    EQUIPMENT,
+};
 pub(crate) use error::numbered_lines;
 pub use error::{ParseError, RenderError};
 pub use params::{ParameterSpec, ResolvedParameters};
+pub use simulation::{Simulation, TemplateText};
+pub use solver::{solver_for, solver_names, DemSolver, SolverTemplate, SOLVERS};
+pub use stage::{stage_for, stage_kinds, Stage, StageError, Upstream, STAGES};
 
 /// One fully resolved simulation: every template parameter has a value.
 #[derive(Debug, Clone, PartialEq)]
@@ -84,55 +96,13 @@ pub struct Observations {
     pub series: Vec<Series>,
 }
 
-/// A solver behind `orch`: render, command, parse.
-pub trait SolverAdapter: Send + Sync {
-    /// Name used in study files (`solver: liggghts`).
-    fn name(&self) -> &'static str;
-
-    /// The parameters the default template understands, with defaults and ranges.
-    fn parameters(&self) -> &'static [ParameterSpec];
-
-    /// The default template's file name under `templates/<solver>/`, for messages.
-    fn default_template_name(&self) -> &'static str;
-
-    /// How a user installs the solver, for the message when it is missing.
-    fn install_hint(&self) -> &'static str;
-
-    /// The default template's text (compiled into the binary).
-    fn default_template(&self) -> &'static str;
-
-    /// Checks a resolved case beyond per-parameter ranges (e.g. that the geometry can
-    /// be built); returns what is wrong, naming the parameters.
-    fn check(&self, case: &Case) -> Result<(), RenderError>;
-
-    /// Writes the solver's input for `case` into `run_dir` from `template` (the text of
-    /// a Tera template named `template_name` in messages).
-    fn render(
-        &self,
-        case: &Case,
-        template_name: &str,
-        template: &str,
-        run_dir: &Path,
-    ) -> Result<(), RenderError>;
-
-    /// The command that runs a case rendered into `run_dir`.
-    fn command(&self, case: &Case) -> CommandSpec;
-
-    /// Reads what the solver wrote into `run_dir`.
-    fn parse(&self, case: &Case, run_dir: &Path) -> Result<Observations, ParseError>;
-}
-
-/// Names of every solver `orch` knows, for messages.
-pub const SOLVER_NAMES: &[&str] = &["liggghts", "native", "yade"];
-
-/// The adapter for solver `name`, or `None` for an unknown solver.
-pub fn adapter_for(name: &str) -> Option<&'static dyn SolverAdapter> {
-    match name {
-        "liggghts" => Some(&liggghts::Liggghts),
-        "native" => Some(&native::Native),
-        "yade" => Some(&yade::Yade),
-        _ => None,
-    }
+/// What a run gives the store: named scalar responses and named series.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct RunResults {
+    /// `(name, value)` in the unit the response's [`ResponseSpec`] gives.
+    pub responses: Vec<(String, f64)>,
+    /// Time series.
+    pub series: Vec<Series>,
 }
 
 /// Opens a file of a run directory for reading; the error names the file.

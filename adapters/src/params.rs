@@ -44,3 +44,22 @@ impl ResolvedParameters {
         self.0.get(name).copied().unwrap_or(f64::NAN)
     }
 }
+
+/// A parameter spec, for the adapters' tables.
+pub(crate) const fn spec(
+    name: &'static str,
+    default: f64,
+    unit: &'static str,
+    min: f64,
+    max: f64,
+    description: &'static str,
+) -> ParameterSpec {
+    ParameterSpec {
+        name,
+        default,
+        unit,
+        min,
+        max,
+        description,
+    }
+}

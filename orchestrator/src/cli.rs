@@ -5,6 +5,7 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use clap::{Parser, Subcommand};
 
+use crate::catalogue;
 use crate::driver::{self, Ending};
 use crate::executor::process::{self, ProcessHandle};
 use crate::executor::{Executor, SlurmExecutor};
@@ -81,6 +82,37 @@ pub enum Command {
         #[arg(long)]
         retry_failed: bool,
     },
+    /// What a study can use: equipment, solvers and stages; with a name, its parameters
+    /// (default, unit, range) and responses (unit).
+    Params {
+        /// An equipment (`hopper`) or a stage kind (`cfd`); without it, the list.
+        name: Option<String>,
+        /// Also say what this solver renders and runs for the equipment.
+        #[arg(long)]
+        solver: Option<String>,
+        /// Every table as Markdown (docs/parameters.md).
+        #[arg(long, conflicts_with_all = ["name", "solver"])]
+        markdown: bool,
+    },
+    /// Default templates, to copy and adapt as a study's `template:`.
+    Template {
+        /// What to do.
+        #[command(subcommand)]
+        action: TemplateAction,
+    },
+}
+
+/// `orch template` actions.
+#[derive(Debug, Subcommand)]
+pub enum TemplateAction {
+    /// Print a solver's default template of an equipment.
+    Show {
+        /// The equipment (`hopper`).
+        equipment: String,
+        /// The solver (`liggghts`, `yade`, `native`).
+        #[arg(long)]
+        solver: String,
+    },
 }
 
 /// An error in what the user gave: exit code [`exit_codes::BAD_INPUT`].
@@ -114,7 +146,134 @@ pub async fn run(args: Args) -> anyhow::Result<i32> {
             study,
             retry_failed,
         } => resume(project_dir, &study, retry_failed).await,
+        Command::Params {
+            name,
+            solver,
+            markdown,
+        } => params(name.as_deref(), solver.as_deref(), markdown),
+        Command::Template {
+            action: TemplateAction::Show { equipment, solver },
+        } => {
+            let solver = known_solver(&solver)?;
+            let text = catalogue::template(&equipment, solver).map_err(input_error)?;
+            print!("{text}");
+            Ok(exit_codes::SUCCESS)
+        }
     }
+}
+
+/// What a dry run says besides the design: every parameter with its value and where it
+/// comes from, the responses with units, the objective and the rounds.
+fn dry_run_summary(study: &Study) -> String {
+    use std::fmt::Write;
+    let equipment = study.simulation.equipment;
+    let mut out = format!(
+        "parameters of the {} (factor, fixed or default):\n",
+        equipment.name()
+    );
+    let mut line = |name: &str, value: String, unit: &str, origin: &str| {
+        let _ = writeln!(out, "  {name:<20} {value:>22} {unit:<8} {origin}");
+    };
+    for factor in &study.factors {
+        let range = format!("[{}, {}]", factor.range.min, factor.range.max);
+        line(&factor.name, range, &factor.unit, "factor");
+    }
+    for spec in equipment.parameters() {
+        if study.factors.iter().any(|f| f.name == spec.name) {
+            continue;
+        }
+        match study.fixed.get(spec.name) {
+            Some(value) => line(spec.name, value.to_string(), spec.unit, "fixed"),
+            None => line(spec.name, spec.default.to_string(), spec.unit, "default"),
+        }
+    }
+    for stage in &study.stages {
+        let kind = stage.stage.kind();
+        for spec in stage.stage.parameters() {
+            let (value, origin) = match stage.fixed.get(spec.name) {
+                Some(value) => (*value, "fixed"),
+                None => (spec.default, "default"),
+            };
+            let name = format!("{kind}.{}", spec.name);
+            line(&name, value.to_string(), spec.unit, origin);
+        }
+    }
+    let responses: Vec<String> = study
+        .shown_responses()
+        .iter()
+        .map(|r| format!("{r} [{}]", study.response_unit(r).unwrap_or("?")))
+        .collect();
+    let _ = writeln!(out, "responses: {}", responses.join(", "));
+    match &study.objective {
+        Some(objective) => {
+            let _ = writeln!(
+                out,
+                "objective: {:?} {}{}",
+                objective.goal,
+                objective.name(),
+                objective
+                    .constraints
+                    .iter()
+                    .map(|(r, min, max)| format!(
+                        ", subject to {}{r}{}",
+                        min.map(|m| format!("{m} ≤ ")).unwrap_or_default(),
+                        max.map(|m| format!(" ≤ {m}")).unwrap_or_default()
+                    ))
+                    .collect::<String>()
+            );
+        }
+        None => out.push_str("objective: none (one round, surfaces fitted, no optimum)\n"),
+    }
+    let _ = writeln!(out, "rounds: at most {}", study.rounds);
+    out
+}
+
+/// The solver called `name`, or an input error listing the solvers.
+fn known_solver(name: &str) -> anyhow::Result<&'static orch_adapters::DemSolver> {
+    orch_adapters::solver_for(name).ok_or_else(|| {
+        input_error(format!(
+            "unknown solver `{name}`; expected one of: {}",
+            orch_adapters::solver_names().join(", ")
+        ))
+    })
+}
+
+/// `orch params`: the catalogue, one equipment or stage, or the Markdown of all.
+fn params(name: Option<&str>, solver: Option<&str>, markdown: bool) -> anyhow::Result<i32> {
+    let text = match name {
+        _ if markdown => catalogue::markdown(),
+        None => catalogue::overview(),
+        Some(name) => {
+            if let Some(stage) = orch_adapters::stage_for(name) {
+                catalogue::stage_text(stage)
+            } else {
+                let equipment = orch_adapters::equipment_for(name).ok_or_else(|| {
+                    input_error(format!(
+                        "no equipment or stage `{name}`; expected one of: {}, {}",
+                        orch_adapters::equipment_names().join(", "),
+                        orch_adapters::stage_kinds().join(", ")
+                    ))
+                })?;
+                let simulation = match solver {
+                    None => None,
+                    Some(solver) => {
+                        let solver = known_solver(solver)?;
+                        let simulation = orch_adapters::Simulation::new(equipment, solver)
+                            .ok_or_else(|| {
+                                input_error(format!(
+                                    "the {} solver has no template for `{name}`",
+                                    solver.name
+                                ))
+                            })?;
+                        Some(simulation)
+                    }
+                };
+                catalogue::equipment_text(equipment, simulation.as_ref())
+            }
+        }
+    };
+    print!("{text}");
+    Ok(exit_codes::SUCCESS)
 }
 
 fn study_error(error: StudyError) -> anyhow::Error {
@@ -141,17 +300,19 @@ async fn submit(
     let study = Study::load(study_file).map_err(study_error)?;
     if dry_run {
         println!(
-            "{}: {} design points × {} replicates = {} jobs on {}",
+            "{}: {} design points × {} replicates = {} jobs: {:?}",
             study.name,
             study.points.len(),
             study.replicates,
             study.job_count(),
-            study.adapter.name()
+            study.simulation
         );
-        if study.cfd.is_some() {
+        for stage in &study.stages {
             println!(
-                "  each design job followed by an OpenFOAM stage ({} CFD jobs)",
-                study.points.len() * study.replicates as usize
+                "  each design job followed by a {} stage ({} jobs): {}",
+                stage.stage.kind(),
+                study.points.len() * study.replicates as usize,
+                stage.stage.description()
             );
         }
         for (i, point) in study.points.iter().enumerate() {
@@ -163,26 +324,24 @@ async fn submit(
                 .collect();
             println!("  p{i:03}: {}", values.join(", "));
         }
+        print!("{}", dry_run_summary(&study));
         return Ok(exit_codes::SUCCESS);
     }
-    let program = study
-        .adapter
-        .command(&study.case(&study.points[0], 0))
-        .program;
+    let solver = study.simulation.solver;
+    let program = study.simulation.command().program;
     if !program_exists(&program) {
         return Err(input_error(format!(
             "the {} solver `{program}` is not installed (not found on PATH); install it with `{}` and submit again; nothing was written",
-            study.adapter.name(),
-            study.adapter.install_hint()
+            solver.name, solver.install_hint
         )));
     }
-    if study.cfd.is_some() {
-        if let Some(missing) = ["blockMesh", "topoSet", "pimpleFoam"]
-            .into_iter()
-            .find(|p| !program_exists(p))
-        {
+    for stage in &study.stages {
+        let stage = stage.stage;
+        if let Some(missing) = stage.programs().iter().find(|p| !program_exists(p)) {
             return Err(input_error(format!(
-                "the study has a `cfd:` stage but OpenFOAM's `{missing}` is not on PATH; install it with `apt-get install -y openfoam` (or scripts/setup) and submit again; nothing was written"
+                "the study has a `{}` stage but its program `{missing}` is not on PATH; install it with `{}` and submit again; nothing was written",
+                stage.kind(),
+                stage.install_hint()
             )));
         }
     }
@@ -226,7 +385,7 @@ async fn submit(
                 study.job_count(),
                 study.points.len(),
                 study.replicates,
-                study.adapter.name(),
+                solver.name,
                 study.executor.max_parallel,
                 store.path().display()
             );
@@ -349,7 +508,9 @@ async fn show_status(
                 .parent()
                 .unwrap_or(Path::new("."))
                 .to_path_buf();
-            let responses = stored_study(&row).map(|s| s.responses).unwrap_or_default();
+            let responses = stored_study(&row)
+                .map(|s| s.shown_responses())
+                .unwrap_or_default();
             let detail = StudyDetail::load(&store, row).await?;
             if as_json {
                 println!("{}", serde_json::to_string_pretty(&detail.json(&project))?);
@@ -402,14 +563,16 @@ async fn logs(project_dir: Option<&Path>, reference: &str, tail: usize) -> anyho
             )))
         }
     };
-    let adapter = orch_adapters::adapter_for(&study.solver)
-        .context("the study's solver is unknown to this orch")?;
-    let log_file = adapter
-        .command(&orch_adapters::Case {
-            parameters: Default::default(),
-            seed: 0,
-        })
-        .log_file;
+    let log_file = match job.stage_kind() {
+        Some(kind) => orch_adapters::stage_for(kind)
+            .context("the job's stage is unknown to this orch")?
+            .log_file(),
+        None => {
+            orch_adapters::solver_for(&study.solver)
+                .context("the study's solver is unknown to this orch")?
+                .log_file
+        }
+    };
     println!(
         "job {}/{}: {} after {} attempt(s){}",
         study.name,
@@ -425,7 +588,7 @@ async fn logs(project_dir: Option<&Path>, reference: &str, tail: usize) -> anyho
     for file in [
         crate::executor::STDOUT_FILE,
         crate::executor::STDERR_FILE,
-        log_file.as_str(),
+        log_file,
     ] {
         let path = run_dir.join(file);
         println!("==> {} <==", path.display());

@@ -12,9 +12,13 @@
 //!    limit is terminated (Slurm enforces its own), and a job that vanished without an
 //!    exit status goes back to pending;
 //! 3. render and launch pending jobs while fewer than `max_parallel` (local) or
-//!    `max_submitted` (Slurm) are unfinished. A CFD stage waits until its DEM job has
-//!    succeeded and is rendered from that job's responses; when the DEM job failed or
-//!    was cancelled, so is its CFD stage.
+//!    `max_submitted` (Slurm) are unfinished. A stage job (e.g. OpenFOAM after DEM)
+//!    waits until its upstream job has succeeded and is rendered from that job's case
+//!    and responses; when the upstream job failed or was cancelled, so is the stage.
+//!
+//! The driver knows no equipment, solver or stage by name: a design job is rendered,
+//! run and read through the study's [`orch_adapters::Simulation`], a stage job through
+//! its [`orch_adapters::Stage`].
 //!
 //! The store is the truth: after `kill -9` of `orch`, a new driver finds submitted and
 //! running jobs by their handles, follows them to the end and collects their results;
@@ -25,9 +29,7 @@ use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-use orch_adapters::{openfoam, CommandSpec, Observations};
-use orch_granular::responses::{cumulative_mass_series, mass_flow_series};
-use orch_granular::{DischargeResponses, ResponseOptions};
+use orch_adapters::{CommandSpec, RunResults, Upstream};
 use tokio::signal::unix::{signal, SignalKind};
 
 use crate::executor::{
@@ -35,12 +37,10 @@ use crate::executor::{
     ATTEMPTS_LOG, STDERR_FILE, STDOUT_FILE,
 };
 use crate::store::{now_s, JobResults, JobRow, JobState, PointRow, Store, StoreError, StudyState};
-use crate::study::{ExecutorKind, Study};
+use crate::study::{ExecutorKind, StageConfig, Study};
 
 /// How often the driver looks at its jobs.
 pub const TICK: Duration = Duration::from_millis(100);
-/// Width of the bins of the stored mass-flow-rate series, s.
-pub const MASS_FLOW_BIN_S: f64 = 0.02;
 /// How often an executor that cannot be asked (slurmctld down) is reported.
 const POLL_ERROR_REPORT: Duration = Duration::from_secs(60);
 
@@ -253,25 +253,26 @@ impl<E: Executor> Driver<'_, E> {
         due
     }
 
-    /// CFD stages whose DEM job failed or was cancelled follow it: nothing can drive
-    /// their air. (`orch resume` reopens both.)
+    /// Stage jobs whose upstream job failed or was cancelled follow it: nothing can
+    /// feed them. (`orch resume` reopens both.)
     async fn settle_orphaned_stages(&mut self, jobs: &[JobRow]) -> Result<(), DriverError> {
         let by_id: HashMap<i64, &JobRow> = jobs.iter().map(|j| (j.id, j)).collect();
         for job in jobs.iter().filter(|j| j.state() == JobState::Pending) {
-            let Some(dem) = job.after_job_id.and_then(|id| by_id.get(&id)) else {
+            let Some(upstream) = job.after_job_id.and_then(|id| by_id.get(&id)) else {
                 continue;
             };
-            match dem.state() {
+            let kind = job.stage_kind().unwrap_or("stage");
+            match upstream.state() {
                 JobState::Failed => {
                     let reason = format!(
-                        "its DEM stage {} failed, so there is no stream to drive the air",
-                        dem.name
+                        "its upstream job {} failed, so the {kind} stage has no inputs",
+                        upstream.name
                     );
                     self.report(job, &format!("failed: {reason}"));
                     self.store.mark_failed(job.id, None, &reason).await?;
                 }
                 JobState::Cancelled => {
-                    let note = format!("its DEM stage {} was cancelled", dem.name);
+                    let note = format!("its upstream job {} was cancelled", upstream.name);
                     self.store.mark_cancelled(job.id, &note).await?;
                 }
                 _ => {}
@@ -280,36 +281,40 @@ impl<E: Executor> Driver<'_, E> {
         Ok(())
     }
 
+    /// The study's stage of a stage job, or why it has none.
+    fn stage_of(&self, kind: &str) -> Result<&StageConfig, String> {
+        self.study.stage(kind).ok_or_else(|| {
+            format!("the study file no longer has the `{kind}` stage this job belongs to")
+        })
+    }
+
     /// Renders a job into its run directory and returns its command, or why not.
     async fn render(&self, job: &JobRow, run_dir: &Path) -> Result<CommandSpec, String> {
-        if !job.is_cfd() {
-            let case = self.case(job);
-            let template = &self.study.template;
-            self.study
-                .adapter
-                .render(&case, &template.name, &template.text, run_dir)
+        let Some(kind) = job.stage_kind() else {
+            let simulation = self.study.simulation;
+            simulation
+                .render(&self.case(job), &self.study.template, run_dir)
                 .map_err(|e| format!("cannot render the case: {e}"))?;
-            return Ok(self.study.adapter.command(&case));
-        }
-        let Some(stage) = &self.study.cfd else {
-            return Err("the study file no longer has a `cfd:` section".to_string());
+            return Ok(simulation.command());
         };
-        let dem = match job.after_job_id {
+        let stage = self.stage_of(kind)?;
+        let upstream = match job.after_job_id {
             Some(id) => self.store.job(id).await.map_err(|e| e.to_string())?,
-            None => return Err("a CFD stage without its DEM job".to_string()),
+            None => return Err(format!("a {kind} stage without its upstream job")),
         };
         let responses = self
             .store
-            .job_responses(dem.id)
+            .job_responses(upstream.id)
             .await
             .map_err(|e| e.to_string())?;
-        let stream = openfoam::StreamInputs::from_dem(&self.case(&dem), |name| {
-            responses.get(name).copied()
-        })?;
-        let case = stage.case();
-        openfoam::render(&case, &stream, run_dir)
-            .map_err(|e| format!("cannot render the CFD case: {e}"))?;
-        Ok(openfoam::command(&case))
+        let upstream = Upstream {
+            case: &self.case(&upstream),
+            responses: &responses,
+        };
+        stage
+            .stage
+            .render(&stage.case(), &upstream, run_dir)
+            .map_err(|e| e.to_string())
     }
 
     async fn launch(&mut self, job: &JobRow) -> Result<(), DriverError> {
@@ -466,29 +471,33 @@ impl<E: Executor> Driver<'_, E> {
     }
 
     fn log_file(&self, job: &JobRow) -> String {
-        if job.is_cfd() {
-            return openfoam::LOG_FILE.to_string();
+        match job.stage_kind().and_then(|kind| self.study.stage(kind)) {
+            Some(stage) => stage.stage.log_file().to_string(),
+            None => self.study.simulation.solver.log_file.to_string(),
         }
-        self.study.adapter.command(&self.case(job)).log_file
     }
 
     /// Parses a successful run and stores its results, or fails the job with why not.
     async fn collect(&mut self, job: &JobRow, run_dir: &Path) -> Result<(), DriverError> {
         let case = self.case(job);
-        let adapter = self.study.adapter;
+        let simulation = self.study.simulation;
+        let stage = match job.stage_kind() {
+            Some(kind) => match self.stage_of(kind) {
+                Ok(config) => Some(config.stage),
+                Err(reason) => return self.fail_or_retry(job, Some(0), reason).await,
+            },
+            None => None,
+        };
         let dir = run_dir.to_path_buf();
-        let is_cfd = job.is_cfd();
-        let parsed = tokio::task::spawn_blocking(move || {
-            if is_cfd {
-                openfoam::parse(&dir).map(cfd_results)
-            } else {
-                adapter.parse(&case, &dir).map(|o| results_of(&o))
-            }
+        let parsed = tokio::task::spawn_blocking(move || match stage {
+            Some(stage) => stage.results(&dir),
+            None => simulation.results(&case, &dir),
         })
         .await
-        .unwrap_or_else(|e| panic!("the parser of {} panicked: {e}", adapter.name()));
+        .unwrap_or_else(|e| panic!("the parser of {} panicked: {e}", job.name));
         match parsed {
             Ok(results) => {
+                let results = job_results(results);
                 self.report_success(job, &results);
                 self.store.mark_succeeded(job.id, 0, &results).await?;
             }
@@ -610,41 +619,8 @@ impl<E: Executor> Driver<'_, E> {
     }
 }
 
-/// Responses and series of a run from what its solver observed.
-pub fn results_of(observations: &Observations) -> JobResults {
-    let responses =
-        DischargeResponses::compute(&observations.crossings, &ResponseOptions::default());
-    let mut named = responses.named();
-    if let Some(loop_time) = observations.solver_loop_time_s {
-        named.push(("solver_loop_time".to_string(), loop_time));
-        if let Some(work) = observations.particle_steps.filter(|_| loop_time > 0.0) {
-            named.push(("solver_particle_steps_per_s".to_string(), work / loop_time));
-        }
-    }
-    let mut series = vec![
-        (
-            "mass_flow_rate".to_string(),
-            mass_flow_series(&observations.crossings, MASS_FLOW_BIN_S),
-        ),
-        (
-            "discharged_mass".to_string(),
-            cumulative_mass_series(&observations.crossings),
-        ),
-    ];
-    series.extend(
-        observations
-            .series
-            .iter()
-            .map(|s| (s.name.clone(), s.points.clone())),
-    );
-    JobResults {
-        responses: named,
-        series,
-    }
-}
-
-/// Responses and series of a CFD stage.
-fn cfd_results(results: openfoam::CfdResults) -> JobResults {
+/// What the store keeps of a run's results.
+fn job_results(results: RunResults) -> JobResults {
     JobResults {
         responses: results.responses,
         series: results

@@ -5,6 +5,7 @@
 //! SQLite store that holds every state; [`driver`] runs a study's jobs through an
 //! [`executor`]; [`status`] reads the store for people and scripts.
 
+pub mod catalogue;
 pub mod cli;
 pub mod driver;
 pub mod executor;

@@ -28,21 +28,18 @@ pub enum Advance {
     Done(String),
 }
 
-/// The responses fitted after each round: the objective's, then the study's list; a
-/// default pair when the study names none.
+/// The responses fitted after each round: the objective's, then the study's list, or
+/// the equipment's headline responses when the study names none.
 pub fn fitted_responses(study: &Study) -> Vec<String> {
     let mut names = study
         .objective
         .as_ref()
         .map(Objective::responses)
         .unwrap_or_default();
-    for response in &study.responses {
-        if !names.contains(response) {
-            names.push(response.clone());
+    for response in study.shown_responses() {
+        if !names.contains(&response) {
+            names.push(response);
         }
-    }
-    if names.is_empty() {
-        names = vec!["discharge_rate".into(), "segregation_ratio".into()];
     }
     names
 }

@@ -82,16 +82,10 @@ impl StudyDetail {
         crate::driver::counts(&rows)
     }
 
-    /// The per-job table, showing `responses` (or a default set when empty).
+    /// The per-job table, showing `responses` (the study's
+    /// [`crate::study::Study::shown_responses`]).
     pub fn table(&self, responses: &[String]) -> String {
-        let shown: Vec<String> = if responses.is_empty() {
-            ["discharge_rate", "segregation_ratio"]
-                .iter()
-                .map(|s| s.to_string())
-                .collect()
-        } else {
-            responses.to_vec()
-        };
+        let shown = responses.to_vec();
         let mut header: Vec<String> = ["JOB", "STATE", "TRIES", "HANDLE"]
             .iter()
             .map(|s| s.to_string())

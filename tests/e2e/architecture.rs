@@ -1,5 +1,7 @@
 //! Architecture invariants that a test can check (docs/architecture.md).
 
+use std::path::{Path, PathBuf};
+
 use crate::support::root;
 
 /// The `[dependencies]` names of a crate's manifest.
@@ -56,4 +58,64 @@ fn adapters_do_not_depend_on_the_orchestrator_or_its_runtime() {
             "orch-adapters depends on {dependency}"
         );
     }
+}
+
+/// Every `.rs` file under `dir`, with its text cut before its test module: files of
+/// tests (`tests.rs`, `*_tests.rs`) are left out, and in other files what follows a
+/// `#[cfg(test)]` line.
+fn production_sources(dir: &Path) -> Vec<(PathBuf, String)> {
+    let mut found = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(dir) = stack.pop() {
+        for entry in std::fs::read_dir(&dir).unwrap().flatten() {
+            let path = entry.path();
+            let name = entry.file_name().to_string_lossy().into_owned();
+            if path.is_dir() {
+                stack.push(path);
+            } else if name.ends_with(".rs") && name != "tests.rs" && !name.ends_with("_tests.rs") {
+                let text = std::fs::read_to_string(&path).unwrap();
+                let production = match text.find("\n#[cfg(test)]") {
+                    Some(cut) => text[..cut].to_string(),
+                    None => text,
+                };
+                found.push((path, production));
+            }
+        }
+    }
+    found
+}
+
+/// The equipment seam: the driver, study validation, rounds, status and CLI ask the
+/// study's equipment for response names, so no hopper response name appears as a
+/// string outside the hopper's own module. The exception is a stage's declared
+/// contract with its upstream job (`openfoam::UPSTREAM_RESPONSES`), which validation
+/// checks against the equipment.
+#[test]
+fn no_hopper_response_name_is_spelled_outside_the_hopper_module() {
+    let names: Vec<&str> = orch_adapters::hopper::RESPONSES
+        .iter()
+        .map(|r| r.name)
+        .collect();
+    let allowed = [
+        root().join("adapters/src/hopper.rs"),
+        root().join("adapters/src/openfoam/mod.rs"),
+    ];
+    let mut offenders = Vec::new();
+    for dir in ["orchestrator/src", "adapters/src"] {
+        for (path, text) in production_sources(&root().join(dir)) {
+            if allowed.contains(&path) {
+                continue;
+            }
+            for name in &names {
+                if text.contains(&format!("\"{name}\"")) {
+                    offenders.push(format!("{} spells \"{name}\"", path.display()));
+                }
+            }
+        }
+    }
+    assert!(
+        offenders.is_empty(),
+        "hopper response names outside the hopper module (ask the study's equipment instead):\n{}",
+        offenders.join("\n")
+    );
 }

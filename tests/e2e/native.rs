@@ -60,6 +60,35 @@ fn the_quickstart_study_runs_on_the_native_kernel_and_discharges_like_beverloo()
         "SELECT COUNT(*) FROM responses WHERE name = 'solver_particle_steps_per_s' AND value > 0",
     );
     assert_eq!(rows[0][0], "9", "every run's throughput is stored");
+    same_responses_as_before_the_equipment_seam(&status);
+}
+
+/// The kernel is deterministic, so the quickstart's responses are the same bit for bit
+/// as those recorded before the hopper became one equipment behind the seam
+/// (`tests/fixtures/quickstart-responses.json`, from commit eb004ce). Timing responses
+/// (`solver_*`) are left out.
+fn same_responses_as_before_the_equipment_seam(status: &serde_json::Value) {
+    let fixture = root().join("tests/fixtures/quickstart-responses.json");
+    let expected: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&fixture).unwrap()).unwrap();
+    let expected = expected.as_object().unwrap();
+    let jobs = status["jobs"].as_array().unwrap();
+    assert_eq!(jobs.len(), expected.len());
+    for job in jobs {
+        let name = job["name"].as_str().unwrap();
+        let before = expected[name].as_object().unwrap();
+        let now = job["responses"].as_object().unwrap();
+        let measured: Vec<&String> = now.keys().filter(|k| !k.starts_with("solver_")).collect();
+        assert_eq!(measured, before.keys().collect::<Vec<_>>(), "{name}");
+        for (response, value) in before {
+            let (before, now) = (value.as_f64().unwrap(), now[response].as_f64().unwrap());
+            assert_eq!(
+                before.to_bits(),
+                now.to_bits(),
+                "{name} {response}: {now} now, {before} before the seam"
+            );
+        }
+    }
 }
 
 /// A time step far beyond the Rayleigh time makes the kernel stop with an error naming

@@ -108,7 +108,7 @@ fn a_failed_dem_job_fails_its_cfd_stage_and_the_study_goes_on() {
         cfd["error"]
             .as_str()
             .unwrap()
-            .contains("its DEM stage p001r0 failed"),
+            .contains("its upstream job p001r0 failed"),
         "{cfd:#}"
     );
 }

@@ -108,10 +108,66 @@ fn dry_run_prints_the_design_and_writes_nothing() {
     assert!(output.status.success(), "{}", text(&output.stderr));
     let stdout = text(&output.stdout);
     assert!(
-        stdout.starts_with("tiny: 2 design points × 1 replicates = 2 jobs on liggghts\n"),
+        stdout.starts_with("tiny: 2 design points × 1 replicates = 2 jobs: hopper on liggghts\n"),
         "{stdout}"
     );
+    // Every parameter with its value and where it comes from, then what is measured.
+    let line = |name: &str| {
+        stdout
+            .lines()
+            .find(|l| l.split_whitespace().next() == Some(name))
+            .unwrap_or_else(|| panic!("no `{name}` line in:\n{stdout}"))
+            .split_whitespace()
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(line("density"), ["density", "2500", "kg/m^3", "default"]);
+    assert!(stdout.contains("\nresponses: "), "{stdout}");
+    assert!(stdout.contains("\nrounds: at most 1\n"), "{stdout}");
     assert!(!project.project_dir().exists());
+}
+
+#[test]
+fn params_and_template_show_list_what_a_study_can_use() {
+    let project = Project::new();
+    let output = project.run(&["params"]);
+    assert!(output.status.success(), "{}", text(&output.stderr));
+    let overview = text(&output.stdout);
+    for name in ["hopper", "liggghts", "native", "yade", "cfd"] {
+        assert!(overview.contains(name), "{name} missing from:\n{overview}");
+    }
+    let output = project.run(&["params", "hopper", "--solver", "native"]);
+    let table = text(&output.stdout);
+    let outlet = table
+        .lines()
+        .find(|l| l.trim_start().starts_with("outlet_diameter "))
+        .unwrap_or_else(|| panic!("{table}"));
+    assert_eq!(
+        outlet.split_whitespace().take(4).collect::<Vec<_>>(),
+        ["outlet_diameter", "0.024", "m", "[0.001,"]
+    );
+    assert!(table.contains("discharge_rate"), "{table}");
+    assert!(table.contains("rendered as hopper.toml"), "{table}");
+    let output = project.run(&["params", "cfd"]);
+    assert!(text(&output.stdout).contains("air_entrained_flow"));
+
+    let output = project.run(&["template", "show", "hopper", "--solver", "liggghts"]);
+    assert!(output.status.success());
+    let deck =
+        std::fs::read_to_string(crate::support::root().join("templates/liggghts/hopper.in.tera"))
+            .unwrap();
+    assert_eq!(text(&output.stdout), deck);
+
+    let output = project.run(&["params", "silo"]);
+    assert_eq!(output.status.code(), Some(2));
+    assert!(
+        text(&output.stderr).contains("no equipment or stage `silo`; expected one of: hopper, cfd"),
+        "{}",
+        text(&output.stderr)
+    );
+    let output = project.run(&["template", "show", "hopper", "--solver", "lammps"]);
+    assert_eq!(output.status.code(), Some(2));
+    assert!(text(&output.stderr)
+        .contains("unknown solver `lammps`; expected one of: liggghts, native, yade"));
 }
 
 #[test]

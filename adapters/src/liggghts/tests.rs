@@ -1,24 +1,17 @@
 use std::path::Path;
 
 use super::*;
-use crate::hopper::case_with;
+use crate::hopper::{case_with, observe, on, render_default};
+use crate::TemplateText;
 
 /// Renders `case` with the default template and returns the deck.
 fn check(case: &Case) -> String {
     let dir = tempfile::tempdir().unwrap();
-    let adapter = Liggghts;
-    adapter
-        .render(
-            case,
-            adapter.default_template_name(),
-            adapter.default_template(),
-            dir.path(),
-        )
-        .unwrap();
+    let deck = render_default(&SOLVER, case, dir.path());
     for file in ["hopper.stl", "plug.stl", "sink.stl"] {
         assert!(dir.path().join(file).exists(), "{file}");
     }
-    std::fs::read_to_string(dir.path().join(DECK_FILE)).unwrap()
+    deck
 }
 
 #[test]
@@ -41,7 +34,7 @@ fn vibrated_deck_with_valve_snapshot() {
 #[test]
 fn impossible_geometry_is_refused_before_rendering() {
     let case = case_with(&[("outlet_diameter", 0.003)]);
-    let error = Liggghts.check(&case).unwrap_err().to_string();
+    let error = on(&SOLVER).equipment.check(&case).unwrap_err().to_string();
     assert_eq!(
         error,
         "invalid case: outlet_diameter (0.003 m) must exceed coarse_diameter (0.004 m), or nothing can flow"
@@ -51,13 +44,12 @@ fn impossible_geometry_is_refused_before_rendering() {
 #[test]
 fn template_errors_name_the_template() {
     let dir = tempfile::tempdir().unwrap();
-    let error = Liggghts
-        .render(
-            &case_with(&[]),
-            "my.in.tera",
-            "run {{ no_such_value }}",
-            dir.path(),
-        )
+    let template = TemplateText {
+        name: "my.in.tera".to_string(),
+        text: "run {{ no_such_value }}".to_string(),
+    };
+    let error = on(&SOLVER)
+        .render(&case_with(&[]), &template, dir.path())
         .unwrap_err()
         .to_string();
     assert!(error.starts_with("template my.in.tera: "), "{error}");
@@ -82,7 +74,7 @@ fn parse_reads_crossings_from_a_rendered_then_written_run() {
         "Loop time of 1.5 on 1 procs for 150 steps with 1 atoms\n",
     )
     .unwrap();
-    let observations = Liggghts.parse(&case_with(&[]), dir.path()).unwrap();
+    let observations = observe(&SOLVER, &case_with(&[]), dir.path()).unwrap();
     assert_eq!(observations.crossings.len(), 1);
     let crossing = observations.crossings[0];
     assert!((crossing.time_s - 125.0 * 2e-5).abs() < 1e-12);
@@ -93,8 +85,7 @@ fn parse_reads_crossings_from_a_rendered_then_written_run() {
 #[test]
 fn missing_output_names_the_file() {
     let dir = tempfile::tempdir().unwrap();
-    let error = Liggghts
-        .parse(&case_with(&[]), dir.path())
+    let error = observe(&SOLVER, &case_with(&[]), dir.path())
         .unwrap_err()
         .to_string();
     assert!(

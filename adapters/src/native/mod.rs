@@ -17,18 +17,27 @@ use orch_granular::Crossing;
 
 pub use log::{read_log, NativeLog, THERMO_HEADER};
 
-use crate::hopper;
+use crate::solver::{one_core_command, SolverTemplate};
 use crate::{
-    numbered_lines, open_in_run_dir, Case, CommandSpec, Observations, ParameterSpec, ParseError,
-    RenderError, Series, SolverAdapter,
+    numbered_lines, open_in_run_dir, Case, CommandSpec, DemSolver, Observations, ParseError,
+    SensorPlane, Series,
 };
 
-/// The native kernel's adapter.
-#[derive(Debug, Clone, Copy, Default)]
-pub struct Native;
+/// orch's native kernel.
+pub static SOLVER: DemSolver = DemSolver {
+    name: "native",
+    deck_extension: "toml",
+    log_file: LOG_FILE,
+    install_hint: "cargo install --path orchestrator (it installs orch-dem beside orch)",
+    templates: &[SolverTemplate {
+        equipment: "hopper",
+        path: "templates/native/hopper.toml.tera",
+        text: include_str!("../../../templates/native/hopper.toml.tera"),
+    }],
+    command,
+    parse,
+};
 
-/// Name of the rendered case file in the run directory.
-pub const CASE_FILE: &str = "hopper.toml";
 /// The kernel's log in the run directory.
 pub const LOG_FILE: &str = "log.native";
 /// The sensor's crossings, relative to the run directory.
@@ -50,70 +59,31 @@ pub fn program_path() -> String {
         .unwrap_or_else(|| PROGRAM.to_string())
 }
 
-impl SolverAdapter for Native {
-    fn name(&self) -> &'static str {
-        "native"
-    }
+/// `orch-dem run CASE --log log.native`, one thread.
+fn command(case_file: &str) -> CommandSpec {
+    one_core_command(
+        program_path(),
+        &["run", case_file, "--log", LOG_FILE],
+        LOG_FILE,
+    )
+}
 
-    fn parameters(&self) -> &'static [ParameterSpec] {
-        hopper::PARAMETERS
-    }
-
-    fn default_template_name(&self) -> &'static str {
-        "templates/native/hopper.toml.tera"
-    }
-
-    fn install_hint(&self) -> &'static str {
-        "cargo install --path orchestrator (it installs orch-dem beside orch)"
-    }
-
-    fn default_template(&self) -> &'static str {
-        include_str!("../../../templates/native/hopper.toml.tera")
-    }
-
-    fn check(&self, case: &Case) -> Result<(), RenderError> {
-        hopper::check(case)
-    }
-
-    fn render(
-        &self,
-        case: &Case,
-        template_name: &str,
-        template: &str,
-        run_dir: &Path,
-    ) -> Result<(), RenderError> {
-        hopper::render(case, template_name, template, run_dir, CASE_FILE)
-    }
-
-    fn command(&self, _case: &Case) -> CommandSpec {
-        CommandSpec {
-            program: program_path(),
-            args: ["run", CASE_FILE, "--log", LOG_FILE]
-                .iter()
-                .map(|s| s.to_string())
-                .collect(),
-            env: Default::default(),
-            cores: 1,
-            log_file: LOG_FILE.to_string(),
-        }
-    }
-
-    fn parse(&self, _case: &Case, run_dir: &Path) -> Result<Observations, ParseError> {
-        let open = |file: &str| open_in_run_dir(run_dir, file);
-        let (reader, log_path) = open(LOG_FILE)?;
-        let log = read_log(reader, &log_path)?;
-        let (reader, crossings_path) = open(CROSSINGS_FILE)?;
-        let crossings = read_crossings(reader, &crossings_path)?;
-        Ok(Observations {
-            crossings,
-            solver_loop_time_s: Some(log.loop_time_s),
-            particle_steps: Some(log.particle_steps),
-            series: vec![Series {
-                name: "kinetic_energy".to_string(),
-                points: log.kinetic_energy,
-            }],
-        })
-    }
+/// The log's loop time, work and kinetic energy, and the kernel's own crossings.
+fn parse(_case: &Case, _sensor: &SensorPlane, run_dir: &Path) -> Result<Observations, ParseError> {
+    let open = |file: &str| open_in_run_dir(run_dir, file);
+    let (reader, log_path) = open(LOG_FILE)?;
+    let log = read_log(reader, &log_path)?;
+    let (reader, crossings_path) = open(CROSSINGS_FILE)?;
+    let crossings = read_crossings(reader, &crossings_path)?;
+    Ok(Observations {
+        crossings,
+        solver_loop_time_s: Some(log.loop_time_s),
+        particle_steps: Some(log.particle_steps),
+        series: vec![Series {
+            name: "kinetic_energy".to_string(),
+            points: log.kinetic_energy,
+        }],
+    })
 }
 
 /// Reads the kernel's crossings CSV, in time order.

@@ -2,22 +2,13 @@ use std::io::Cursor;
 use std::path::Path;
 
 use super::*;
-use crate::hopper::case_with;
+use crate::hopper::{self, case_with, render_default};
 
 /// Renders `case` with the default template, checks that the kernel accepts the case
 /// file and its meshes, and returns the case file's text.
 fn check(case: &Case) -> String {
     let dir = tempfile::tempdir().unwrap();
-    let adapter = Native;
-    adapter
-        .render(
-            case,
-            adapter.default_template_name(),
-            adapter.default_template(),
-            dir.path(),
-        )
-        .unwrap();
-    let text = std::fs::read_to_string(dir.path().join(CASE_FILE)).unwrap();
+    let text = render_default(&SOLVER, case, dir.path());
     let parsed = orch_dem::case::Case::parse(&text).unwrap_or_else(|e| panic!("{e}\n{text}"));
     for (index, mesh) in parsed.meshes.iter().enumerate() {
         let bytes = std::fs::read(dir.path().join(&mesh.file)).unwrap();
@@ -47,11 +38,7 @@ fn the_case_is_the_liggghts_deck_s_case() {
     let case = case_with(&[("amplitude", 0.0005)]);
     let native = check(&case);
     let dir = tempfile::tempdir().unwrap();
-    let liggghts = crate::liggghts::Liggghts;
-    liggghts
-        .render(&case, "t", liggghts.default_template(), dir.path())
-        .unwrap();
-    let deck = std::fs::read_to_string(dir.path().join(crate::liggghts::DECK_FILE)).unwrap();
+    let deck = render_default(&crate::liggghts::SOLVER, &case, dir.path());
     let context = hopper::context(&case).into_json();
     for name in ["sensor_z", "fill_bottom", "fill_radius", "fill_top"] {
         let value = context[name].to_string();

@@ -24,8 +24,73 @@ use tera::{Context, Tera};
 
 pub use post::{read_probes, read_surface_field_value, read_time_series_dirs};
 
-use crate::hopper::{error_chain, spec};
-use crate::{Case, CommandSpec, ParameterSpec, ParseError, RenderError, Series};
+use crate::equipment::response;
+use crate::params::spec;
+use crate::simulation::error_chain;
+use crate::{
+    Case, CommandSpec, ParameterSpec, ParseError, RenderError, ResponseSpec, RunResults, Series,
+    Stage, StageError, Upstream,
+};
+
+/// The stream-air stage: OpenFOAM after each DEM job (`stages: {cfd: …}`, or `cfd:`).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct StreamAir;
+
+/// The stage's kind in study files and the store.
+pub const KIND: &str = "cfd";
+
+impl Stage for StreamAir {
+    fn kind(&self) -> &'static str {
+        KIND
+    }
+
+    fn description(&self) -> &'static str {
+        "OpenFOAM (pimpleFoam) case of the air the DEM job's particle stream drags under the outlet"
+    }
+
+    fn parameters(&self) -> &'static [ParameterSpec] {
+        PARAMETERS
+    }
+
+    fn responses(&self) -> &'static [ResponseSpec] {
+        RESPONSE_SPECS
+    }
+
+    fn upstream_responses(&self) -> &'static [&'static str] {
+        UPSTREAM_RESPONSES
+    }
+
+    fn upstream_parameters(&self) -> &'static [&'static str] {
+        UPSTREAM_PARAMETERS
+    }
+
+    fn programs(&self) -> &'static [&'static str] {
+        &["blockMesh", "topoSet", "pimpleFoam"]
+    }
+
+    fn install_hint(&self) -> &'static str {
+        "apt-get install -y openfoam (or scripts/setup)"
+    }
+
+    fn log_file(&self) -> &'static str {
+        LOG_FILE
+    }
+
+    fn render(
+        &self,
+        case: &Case,
+        upstream: &Upstream<'_>,
+        run_dir: &Path,
+    ) -> Result<CommandSpec, StageError> {
+        let stream = StreamInputs::from_upstream(upstream)?;
+        render(case, &stream, run_dir)?;
+        Ok(command(case))
+    }
+
+    fn results(&self, run_dir: &Path) -> Result<RunResults, ParseError> {
+        parse(run_dir)
+    }
+}
 
 /// The case's files: path in the case directory and template text.
 const FILES: &[(&str, &str)] = &[
@@ -167,28 +232,54 @@ pub struct StreamInputs {
 }
 
 /// Responses of the CFD stage.
-pub const RESPONSES: &[&str] = &["air_entrained_flow", "air_ring_speed"];
+pub static RESPONSE_SPECS: &[ResponseSpec] = &[
+    response(
+        "air_entrained_flow",
+        "m^3/s",
+        "volume flow of air out through the bottom of the domain, mean over the last quarter of the run",
+    ),
+    response(
+        "air_ring_speed",
+        "m/s",
+        "mean air speed on the probe ring around the stream, mean over the last quarter of the run",
+    ),
+];
+
+/// The upstream job's responses the stream is built from: its mass flow, mean downward
+/// speed and radius at the sensor plane.
+pub const UPSTREAM_RESPONSES: &[&str] = &["discharge_rate", "exit_speed", "stream_radius"];
+
+/// The upstream case's parameters the drag is built from: the two particle sizes,
+/// their mass fractions and density.
+pub const UPSTREAM_PARAMETERS: &[&str] = &[
+    "coarse_diameter",
+    "fine_diameter",
+    "fine_mass_fraction",
+    "density",
+];
 
 impl StreamInputs {
-    /// The inputs from a DEM case's parameters and its stored responses; the error
+    /// The inputs from the upstream DEM job's case and stored responses; the error
     /// names the first missing response.
-    pub fn from_dem(
-        dem_case: &Case,
-        response: impl Fn(&str) -> Option<f64>,
-    ) -> Result<StreamInputs, String> {
-        let get = |name: &str| {
-            response(name)
+    pub fn from_upstream(upstream: &Upstream<'_>) -> Result<StreamInputs, StageError> {
+        let response = |index: usize| {
+            let name = UPSTREAM_RESPONSES[index];
+            upstream
+                .responses
+                .get(name)
+                .copied()
                 .filter(|v| v.is_finite())
-                .ok_or_else(|| format!("its DEM stage has no `{name}` response"))
+                .ok_or(StageError::MissingResponse(name))
         };
+        let parameter = |index: usize| upstream.case.get(UPSTREAM_PARAMETERS[index]);
         Ok(StreamInputs {
-            discharge_rate_kg_per_s: get("discharge_rate")?,
-            exit_speed_m_per_s: get("exit_speed")?,
-            stream_radius_m: get("stream_radius")?,
-            coarse_diameter_m: dem_case.get("coarse_diameter"),
-            fine_diameter_m: dem_case.get("fine_diameter"),
-            fine_mass_fraction: dem_case.get("fine_mass_fraction"),
-            particle_density: dem_case.get("density"),
+            discharge_rate_kg_per_s: response(0)?,
+            exit_speed_m_per_s: response(1)?,
+            stream_radius_m: response(2)?,
+            coarse_diameter_m: parameter(0),
+            fine_diameter_m: parameter(1),
+            fine_mass_fraction: parameter(2),
+            particle_density: parameter(3),
         })
     }
 }
@@ -304,19 +395,10 @@ pub fn command(case: &Case) -> CommandSpec {
     }
 }
 
-/// What a CFD run gives: responses and time series.
-#[derive(Debug, Clone, PartialEq)]
-pub struct CfdResults {
-    /// `air_entrained_flow` (m³/s out through the bottom) and `air_ring_speed` (m/s,
-    /// mean air speed on the probe ring), averaged over the last [`AVERAGE_OVER`] of
-    /// the run.
-    pub responses: Vec<(String, f64)>,
-    /// The same two quantities over time.
-    pub series: Vec<Series>,
-}
-
-/// Reads the function objects' output of a finished case.
-pub fn parse(run_dir: &Path) -> Result<CfdResults, ParseError> {
+/// Reads the function objects' output of a finished case: `air_entrained_flow` (m³/s
+/// out through the bottom) and `air_ring_speed` (m/s, mean air speed on the probe
+/// ring), averaged over the last [`AVERAGE_OVER`] of the run, and both over time.
+pub fn parse(run_dir: &Path) -> Result<RunResults, ParseError> {
     let entrained = read_time_series_dirs(
         &run_dir.join(ENTRAINED_FLOW),
         "surfaceFieldValue.dat",
@@ -336,18 +418,18 @@ pub fn parse(run_dir: &Path) -> Result<CfdResults, ParseError> {
         })
     })?;
     let responses = vec![
-        (RESPONSES[0].to_string(), late_mean(&entrained)),
-        (RESPONSES[1].to_string(), late_mean(&ring)),
+        (RESPONSE_SPECS[0].name.to_string(), late_mean(&entrained)),
+        (RESPONSE_SPECS[1].name.to_string(), late_mean(&ring)),
     ];
-    Ok(CfdResults {
+    Ok(RunResults {
         responses,
         series: vec![
             Series {
-                name: "air_entrained_flow".to_string(),
+                name: RESPONSE_SPECS[0].name.to_string(),
                 points: entrained,
             },
             Series {
-                name: "air_ring_speed".to_string(),
+                name: RESPONSE_SPECS[1].name.to_string(),
                 points: ring,
             },
         ],

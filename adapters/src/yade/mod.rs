@@ -19,85 +19,52 @@ use std::path::Path;
 
 pub use log::{read_log, YadeSummary, SUMMARY_PREFIX};
 
-use crate::hopper;
 use crate::native::read_crossings;
-use crate::{
-    open_in_run_dir, Case, CommandSpec, Observations, ParameterSpec, ParseError, RenderError,
-    SolverAdapter,
+use crate::solver::{one_core_command, SolverTemplate};
+use crate::{open_in_run_dir, Case, CommandSpec, DemSolver, Observations, ParseError, SensorPlane};
+
+/// YADE, run in batch on one thread.
+pub static SOLVER: DemSolver = DemSolver {
+    name: "yade",
+    deck_extension: "py",
+    log_file: LOG_FILE,
+    install_hint: "apt-get install -y yade (or scripts/setup)",
+    templates: &[SolverTemplate {
+        equipment: "hopper",
+        path: "templates/yade/hopper.py.tera",
+        text: include_str!("../../../templates/yade/hopper.py.tera"),
+    }],
+    command,
+    parse,
 };
 
-/// The YADE adapter.
-#[derive(Debug, Clone, Copy, Default)]
-pub struct Yade;
-
-/// Name of the rendered script in the run directory.
-pub const SCRIPT_FILE: &str = "hopper.py";
 /// The log the script writes in the run directory.
 pub const LOG_FILE: &str = "log.yade";
 /// The sensor's crossings, relative to the run directory.
 pub const CROSSINGS_FILE: &str = "post/crossings.csv";
 
-impl SolverAdapter for Yade {
-    fn name(&self) -> &'static str {
-        "yade"
-    }
+/// `yade -j 1 -n -x SCRIPT`: no GUI, exit when the script ends, one thread.
+fn command(script_file: &str) -> CommandSpec {
+    one_core_command(
+        "yade".to_string(),
+        &["-j", "1", "-n", "-x", script_file],
+        LOG_FILE,
+    )
+}
 
-    fn parameters(&self) -> &'static [ParameterSpec] {
-        hopper::PARAMETERS
-    }
-
-    fn default_template_name(&self) -> &'static str {
-        "templates/yade/hopper.py.tera"
-    }
-
-    fn install_hint(&self) -> &'static str {
-        "apt-get install -y yade (or scripts/setup)"
-    }
-
-    fn default_template(&self) -> &'static str {
-        include_str!("../../../templates/yade/hopper.py.tera")
-    }
-
-    fn check(&self, case: &Case) -> Result<(), RenderError> {
-        hopper::check(case)
-    }
-
-    fn render(
-        &self,
-        case: &Case,
-        template_name: &str,
-        template: &str,
-        run_dir: &Path,
-    ) -> Result<(), RenderError> {
-        hopper::render(case, template_name, template, run_dir, SCRIPT_FILE)
-    }
-
-    fn command(&self, _case: &Case) -> CommandSpec {
-        CommandSpec {
-            program: "yade".to_string(),
-            args: ["-j", "1", "-n", "-x", SCRIPT_FILE]
-                .iter()
-                .map(|s| s.to_string())
-                .collect(),
-            env: Default::default(),
-            cores: 1,
-            log_file: LOG_FILE.to_string(),
-        }
-    }
-
-    fn parse(&self, _case: &Case, run_dir: &Path) -> Result<Observations, ParseError> {
-        let open = |file: &str| open_in_run_dir(run_dir, file);
-        let (reader, log_path) = open(LOG_FILE)?;
-        let summary = read_log(reader, &log_path)?;
-        let (reader, crossings_path) = open(CROSSINGS_FILE)?;
-        let crossings = read_crossings(reader, &crossings_path)?;
-        Ok(Observations {
-            crossings,
-            solver_loop_time_s: Some(summary.loop_time_s),
-            particle_steps: Some(summary.particle_steps),
-            series: Vec::new(),
-        })
-    }
+/// The script's summary line (loop time, work) and its crossings.
+fn parse(_case: &Case, _sensor: &SensorPlane, run_dir: &Path) -> Result<Observations, ParseError> {
+    let open = |file: &str| open_in_run_dir(run_dir, file);
+    let (reader, log_path) = open(LOG_FILE)?;
+    let summary = read_log(reader, &log_path)?;
+    let (reader, crossings_path) = open(CROSSINGS_FILE)?;
+    let crossings = read_crossings(reader, &crossings_path)?;
+    Ok(Observations {
+        crossings,
+        solver_loop_time_s: Some(summary.loop_time_s),
+        particle_steps: Some(summary.particle_steps),
+        series: Vec::new(),
+    })
 }
 
 #[cfg(test)]

@@ -2,24 +2,16 @@ use std::io::Cursor;
 use std::path::Path;
 
 use super::*;
-use crate::hopper::case_with;
+use crate::hopper::{self, case_with, observe, on, render_default};
 
 /// Renders `case` with the default template and returns the script's text.
 fn render(case: &Case) -> String {
     let dir = tempfile::tempdir().unwrap();
-    let adapter = Yade;
-    adapter
-        .render(
-            case,
-            adapter.default_template_name(),
-            adapter.default_template(),
-            dir.path(),
-        )
-        .unwrap();
+    let script = render_default(&SOLVER, case, dir.path());
     for mesh in ["hopper.stl", "plug.stl", "sink.stl"] {
         assert!(dir.path().join(mesh).is_file(), "{mesh} not written");
     }
-    std::fs::read_to_string(dir.path().join(SCRIPT_FILE)).unwrap()
+    script
 }
 
 #[test]
@@ -59,7 +51,7 @@ fn the_script_is_the_liggghts_deck_s_case() {
 
 #[test]
 fn command_runs_yade_in_batch_on_one_thread() {
-    let command = Yade.command(&case_with(&[]));
+    let command = on(&SOLVER).command();
     assert_eq!(command.program, "yade");
     assert_eq!(command.args, ["-j", "1", "-n", "-x", "hopper.py"]);
     assert_eq!(command.cores, 1);
@@ -69,7 +61,7 @@ fn command_runs_yade_in_batch_on_one_thread() {
 #[test]
 fn real_output_parses_into_crossings() {
     let fixtures = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/fixtures/yade");
-    let observations = Yade.parse(&case_with(&[]), &fixtures).unwrap();
+    let observations = observe(&SOLVER, &case_with(&[]), &fixtures).unwrap();
     assert!(
         observations.crossings.len() > 250,
         "{}",

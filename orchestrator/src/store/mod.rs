@@ -17,7 +17,7 @@ use sqlx::sqlite::{SqliteConnectOptions, SqliteJournalMode, SqlitePoolOptions, S
 use sqlx::{Row, SqlitePool};
 
 pub use rounds::{FitRecord, RoundRecord, StoredFit, StoredRound};
-pub use rows::{FactorRow, JobRow, JobState, PointRow, StudyRow, StudyState, CFD_STAGE};
+pub use rows::{FactorRow, JobRow, JobState, PointRow, StudyRow, StudyState, DESIGN_STAGE};
 
 use crate::study::Study;
 
@@ -173,7 +173,7 @@ impl Store {
              VALUES (?, ?, ?, ?, ?, ?, ?, 'active', ?, ?) RETURNING id",
         )
         .bind(&study.name)
-        .bind(study.adapter.name())
+        .bind(study.simulation.solver.name)
         .bind(file_path.display().to_string())
         .bind(&study.file_text)
         .bind(&study.file_sha256)
@@ -812,8 +812,13 @@ pub(crate) async fn insert_points_and_jobs(
             .await
             .map_err(query_error("record a job"))?
             .get(0);
-            if study.cfd.is_some() && matches!(purpose, PointPurpose::Design) {
-                let name = format!("{name}-{CFD_STAGE}");
+            let stages = match purpose {
+                PointPurpose::Design => study.stages.as_slice(),
+                PointPurpose::Test { .. } => &[],
+            };
+            for stage in stages {
+                let kind = stage.stage.kind();
+                let name = format!("{name}-{kind}");
                 sqlx::query(
                     "INSERT INTO jobs (study_id, point_id, replicate, name, seed, state, run_dir, stage, after_job_id)
                      VALUES (?, ?, ?, ?, ?, 'pending', ?, ?, ?)",
@@ -824,11 +829,11 @@ pub(crate) async fn insert_points_and_jobs(
                 .bind(&name)
                 .bind(seed as i64)
                 .bind(runs_dir.join(&name).display().to_string())
-                .bind(CFD_STAGE)
+                .bind(kind)
                 .bind(dem_job)
                 .execute(&mut *tx)
                 .await
-                .map_err(query_error("record a CFD stage"))?;
+                .map_err(query_error("record a stage"))?;
             }
         }
     }

@@ -186,19 +186,20 @@ pub struct JobRow {
     /// What a batch scheduler last said about the current attempt ("PENDING
     /// (Priority)", "RUNNING on n1"); none for local jobs.
     pub scheduler_state: Option<String>,
-    /// `dem`, or `cfd` for a CFD stage chained after a DEM job.
+    /// [`DESIGN_STAGE`] for a design job, else the kind of the stage
+    /// ([`orch_adapters::Stage::kind`]) chained after the job `after_job_id`.
     pub stage: String,
-    /// The job this one waits for and reads its inputs from (CFD stages).
+    /// The job this one waits for and reads its inputs from (stages).
     pub after_job_id: Option<i64>,
 }
 
-/// `jobs.stage` of a CFD stage.
-pub const CFD_STAGE: &str = "cfd";
+/// `jobs.stage` of a design job: the simulation of a design point itself.
+pub const DESIGN_STAGE: &str = "dem";
 
 impl JobRow {
-    /// True for a CFD stage chained after a DEM job.
-    pub fn is_cfd(&self) -> bool {
-        self.stage == CFD_STAGE
+    /// The kind of stage this job is, or `None` for a design job.
+    pub fn stage_kind(&self) -> Option<&str> {
+        (self.stage != DESIGN_STAGE).then_some(self.stage.as_str())
     }
 
     /// The state.

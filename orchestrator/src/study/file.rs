@@ -19,6 +19,9 @@ pub struct StudyFile {
     /// Free text.
     #[serde(default)]
     pub description: Option<String>,
+    /// What is simulated (`hopper`, the default).
+    #[serde(default)]
+    pub equipment: Option<String>,
     /// Solver name (`liggghts`).
     pub solver: String,
     /// A Tera template of the user's, relative to the study file; default per solver.
@@ -58,16 +61,20 @@ pub struct StudyFile {
     /// Uncertain parameters propagated by Monte Carlo at the optimum.
     #[serde(default)]
     pub uncertainty: Option<UncertaintyFile>,
-    /// A CFD stage (OpenFOAM) after each DEM job: the air its particle stream drags.
+    /// Stages run after each design job, by kind (`stages: {cfd: {fixed: …}}`).
     #[serde(default)]
-    pub cfd: Option<CfdFile>,
+    pub stages: BTreeMap<String, StageFile>,
+    /// Shorthand for `stages: {cfd: …}`: the OpenFOAM stage of the air the particle
+    /// stream drags.
+    #[serde(default)]
+    pub cfd: Option<StageFile>,
 }
 
-/// The `cfd:` section: parameters of the OpenFOAM stage held constant.
+/// A stage's section: its parameters held constant.
 #[derive(Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct CfdFile {
-    /// CFD template parameters by name, SI units (`orch submit --dry-run` lists them).
+pub struct StageFile {
+    /// Stage parameters by name, SI units (`orch params` lists them).
     #[serde(default)]
     pub fixed: BTreeMap<String, f64>,
 }

@@ -10,7 +10,10 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
-use orch_adapters::{adapter_for, Case, ResolvedParameters, SolverAdapter, SOLVER_NAMES};
+use orch_adapters::{
+    equipment_for, equipment_names, solver_for, solver_names, stage_for, stage_kinds, Case,
+    ParameterSpec, ResolvedParameters, Simulation, Stage, DEFAULT_EQUIPMENT,
+};
 use orch_metamodel::{
     BasisKind, CentralCompositeAlpha, Design, DesignKind, Distribution, FactorRange, Goal,
 };
@@ -74,14 +77,9 @@ pub struct ExecutorConfig {
     pub slurm: Option<SlurmSettings>,
 }
 
-/// The template a study renders.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Template {
-    /// Its name in messages: the solver's default path or the user's file.
-    pub name: String,
-    /// Its text.
-    pub text: String,
-}
+/// The template a study renders: its name in messages (the solver's default path or
+/// the user's file) and its text.
+pub use orch_adapters::TemplateText as Template;
 
 /// What the rounds optimise: a weighted sum of responses (one term for a single
 /// response), subject to bounds on responses.
@@ -151,8 +149,8 @@ pub struct UncertaintyConfig {
 pub struct Study {
     /// Name.
     pub name: String,
-    /// The solver's adapter.
-    pub adapter: &'static dyn SolverAdapter,
+    /// The equipment and the solver that simulates it.
+    pub simulation: Simulation,
     /// The template to render.
     pub template: Template,
     /// Executor settings.
@@ -179,26 +177,37 @@ pub struct Study {
     pub metamodel: MetamodelConfig,
     /// Uncertain factors, if any.
     pub uncertainty: Option<UncertaintyConfig>,
-    /// The CFD stage chained after every DEM job, if any.
-    pub cfd: Option<CfdStage>,
+    /// Stages chained after every design job, in the order of [`orch_adapters::STAGES`].
+    pub stages: Vec<StageConfig>,
     /// The file's text, kept in the store.
     pub file_text: String,
     /// SHA-256 of the file's text, hex.
     pub file_sha256: String,
 }
 
-/// A CFD stage (OpenFOAM, [`orch_adapters::openfoam`]) run after each DEM job of the
-/// study, fed by that job's responses.
-#[derive(Debug, Clone, PartialEq)]
-pub struct CfdStage {
-    /// CFD parameters held constant; the rest keep their defaults.
+/// A stage run after each design job of the study, fed by that job's case and
+/// responses.
+#[derive(Clone)]
+pub struct StageConfig {
+    /// The stage.
+    pub stage: &'static dyn Stage,
+    /// Its parameters held constant; the rest keep their defaults.
     pub fixed: BTreeMap<String, f64>,
 }
 
-impl CfdStage {
-    /// The CFD case: defaults with the fixed values applied.
+impl std::fmt::Debug for StageConfig {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("StageConfig")
+            .field("kind", &self.stage.kind())
+            .field("fixed", &self.fixed)
+            .finish()
+    }
+}
+
+impl StageConfig {
+    /// The stage's case: defaults with the fixed values applied.
     pub fn case(&self) -> Case {
-        let mut parameters = ResolvedParameters::defaults(orch_adapters::openfoam::PARAMETERS);
+        let mut parameters = ResolvedParameters::defaults(self.stage.parameters());
         for (name, value) in &self.fixed {
             parameters.set(name, *value);
         }
@@ -213,7 +222,7 @@ impl std::fmt::Debug for Study {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Study")
             .field("name", &self.name)
-            .field("solver", &self.adapter.name())
+            .field("simulation", &self.simulation)
             .field("points", &self.points.len())
             .finish_non_exhaustive()
     }
@@ -283,9 +292,42 @@ impl Study {
         self.case_at(&point.natural, seed)
     }
 
+    /// The stage of kind `kind`, if the study has it.
+    pub fn stage(&self, kind: &str) -> Option<&StageConfig> {
+        self.stages.iter().find(|s| s.stage.kind() == kind)
+    }
+
+    /// Every response the study's runs can produce: the equipment's, then each stage's.
+    pub fn known_responses(&self) -> Vec<&'static str> {
+        known_responses(&self.simulation, &self.stages)
+    }
+
+    /// The responses shown and fitted: the study's list, or the equipment's headline
+    /// responses when it names none.
+    pub fn shown_responses(&self) -> Vec<String> {
+        if self.responses.is_empty() {
+            let headline = self.simulation.equipment.headline_responses();
+            headline.iter().map(|r| r.to_string()).collect()
+        } else {
+            self.responses.clone()
+        }
+    }
+
+    /// The unit of response `name`, when the equipment or a stage declares it.
+    pub fn response_unit(&self, name: &str) -> Option<&'static str> {
+        let stages = self.stages.iter().flat_map(|s| s.stage.responses());
+        self.simulation
+            .equipment
+            .responses()
+            .iter()
+            .chain(stages)
+            .find(|r| r.name == name)
+            .map(|r| r.unit)
+    }
+
     /// The fully resolved case at natural factor values `natural` (in factor order).
     pub fn case_at(&self, natural: &[f64], seed: u64) -> Case {
-        let mut parameters = ResolvedParameters::defaults(self.adapter.parameters());
+        let mut parameters = ResolvedParameters::defaults(self.simulation.equipment.parameters());
         for (name, value) in &self.fixed {
             parameters.set(name, *value);
         }
@@ -304,40 +346,128 @@ impl Study {
     }
 }
 
+/// Every response of `simulation`'s equipment and of `stages`.
+fn known_responses(simulation: &Simulation, stages: &[StageConfig]) -> Vec<&'static str> {
+    let stage_responses = stages.iter().flat_map(|s| s.stage.responses());
+    simulation
+        .equipment
+        .responses()
+        .iter()
+        .chain(stage_responses)
+        .map(|r| r.name)
+        .collect()
+}
+
 struct Checker<'a> {
     path: &'a Path,
     locations: std::collections::HashMap<String, Location>,
 }
 
 impl Checker<'_> {
-    /// The `cfd:` section: every fixed value a CFD parameter within its range.
-    fn cfd_stage(&self, cfd: &file::CfdFile) -> Result<CfdStage, StudyError> {
-        let specs = orch_adapters::openfoam::PARAMETERS;
-        for (name, value) in &cfd.fixed {
-            let at = format!("cfd.fixed.{name}");
-            let Some(spec) = specs.iter().find(|s| s.name == name) else {
-                let names: Vec<&str> = specs.iter().map(|s| s.name).collect();
+    /// The stages: `stages:` by kind, and `cfd:` as shorthand for `stages: {cfd: …}`;
+    /// every fixed value a parameter of its stage within its range, and every upstream
+    /// response and parameter a stage reads one the equipment has.
+    fn stages(
+        &self,
+        file: &StudyFile,
+        simulation: &Simulation,
+    ) -> Result<Vec<StageConfig>, StudyError> {
+        let mut sections: Vec<(String, &file::StageFile)> = file
+            .stages
+            .iter()
+            .map(|(kind, section)| (format!("stages.{kind}"), section))
+            .collect();
+        if let Some(cfd) = &file.cfd {
+            if file.stages.contains_key(orch_adapters::openfoam::KIND) {
                 return Err(self.error(
-                    &at,
-                    format!(
-                        "`{name}` is not a parameter of the OpenFOAM stage; expected one of: {}",
-                        names.join(", ")
-                    ),
+                    "cfd",
+                    "the cfd stage is given twice, as `cfd:` and under `stages:`; keep one",
                 ));
-            };
-            if !(spec.min..=spec.max).contains(value) {
+            }
+            sections.push((orch_adapters::openfoam::KIND.to_string(), cfd));
+        }
+        let mut stages = Vec::new();
+        for (at, section) in sections {
+            let kind = at.trim_start_matches("stages.");
+            let stage = stage_for(kind).ok_or_else(|| {
+                self.error(
+                    &at,
+                    format!(
+                        "unknown stage `{kind}`; expected one of: {}",
+                        stage_kinds().join(", ")
+                    ),
+                )
+            })?;
+            for (name, value) in &section.fixed {
+                let field = format!("{at}.fixed.{name}");
+                self.check_value(&field, name, *value, stage.parameters(), || {
+                    format!("is not a parameter of the {kind} stage")
+                })?;
+            }
+            let equipment = simulation.equipment;
+            let has_parameter =
+                |name: &&str| equipment.parameters().iter().any(|p| p.name == *name);
+            let has_response = |name: &&str| equipment.responses().iter().any(|r| r.name == *name);
+            let missing = stage
+                .upstream_responses()
+                .iter()
+                .find(|r| !has_response(r))
+                .map(|r| format!("response `{r}`"))
+                .or_else(|| {
+                    stage
+                        .upstream_parameters()
+                        .iter()
+                        .find(|p| !has_parameter(p))
+                        .map(|p| format!("parameter `{p}`"))
+                });
+            if let Some(missing) = missing {
                 return Err(self.error(
                     &at,
                     format!(
-                        "`{name}` must lie within [{}, {}] {}, got {value}",
-                        spec.min, spec.max, spec.unit
+                        "the {kind} stage reads the {missing} of its upstream job, which the {} equipment does not have",
+                        equipment.name()
                     ),
                 ));
             }
+            stages.push(StageConfig {
+                stage,
+                fixed: section.fixed.clone(),
+            });
         }
-        Ok(CfdStage {
-            fixed: cfd.fixed.clone(),
-        })
+        Ok(stages)
+    }
+
+    /// A fixed value: a parameter of `specs` within its range. `unknown` says what an
+    /// unknown name is (`is not a parameter of …`).
+    fn check_value(
+        &self,
+        field: &str,
+        name: &str,
+        value: f64,
+        specs: &[ParameterSpec],
+        unknown: impl Fn() -> String,
+    ) -> Result<(), StudyError> {
+        let Some(spec) = specs.iter().find(|s| s.name == name) else {
+            let names: Vec<&str> = specs.iter().map(|s| s.name).collect();
+            return Err(self.error(
+                field,
+                format!(
+                    "`{name}` {}; expected one of: {}",
+                    unknown(),
+                    names.join(", ")
+                ),
+            ));
+        };
+        if !(spec.min..=spec.max).contains(&value) {
+            return Err(self.error(
+                field,
+                format!(
+                    "`{name}` must lie within [{}, {}] {}, got {value}",
+                    spec.min, spec.max, spec.unit
+                ),
+            ));
+        }
+        Ok(())
     }
 
     fn error(&self, field: &str, message: impl Into<String>) -> StudyError {
@@ -413,22 +543,44 @@ impl Checker<'_> {
                 ),
             ));
         }
-        let adapter = adapter_for(&file.solver).ok_or_else(|| {
+        let equipment_name = file.equipment.as_deref().unwrap_or(DEFAULT_EQUIPMENT);
+        let equipment = equipment_for(equipment_name).ok_or_else(|| {
+            self.error(
+                "equipment",
+                format!(
+                    "unknown equipment `{equipment_name}`; expected one of: {}",
+                    equipment_names().join(", ")
+                ),
+            )
+        })?;
+        let solver = solver_for(&file.solver).ok_or_else(|| {
             self.error(
                 "solver",
                 format!(
                     "unknown solver `{}`; expected one of: {}",
                     file.solver,
-                    SOLVER_NAMES.join(", ")
+                    solver_names().join(", ")
+                ),
+            )
+        })?;
+        let simulation = Simulation::new(equipment, solver).ok_or_else(|| {
+            let able: Vec<&str> = orch_adapters::SOLVERS
+                .iter()
+                .filter(|s| s.template_for(equipment_name).is_some())
+                .map(|s| s.name)
+                .collect();
+            self.error(
+                "solver",
+                format!(
+                    "the {} solver has no template for the {equipment_name} equipment; expected one of: {}",
+                    solver.name,
+                    able.join(", ")
                 ),
             )
         })?;
         let template = match (stored_template, &file.template) {
             (Some(stored), _) => stored,
-            (None, None) => Template {
-                name: adapter.default_template_name().to_string(),
-                text: adapter.default_template().to_string(),
-            },
+            (None, None) => simulation.default_template(),
             (None, Some(relative)) => {
                 let base = self.path.parent().unwrap_or(Path::new("."));
                 let resolved = base.join(relative);
@@ -445,7 +597,7 @@ impl Checker<'_> {
             }
         };
         let custom_template = file.template.is_some();
-        let specs = adapter.parameters();
+        let specs = equipment.parameters();
         let spec_of = |name: &str| specs.iter().find(|s| s.name == name);
         let known_names = || specs.iter().map(|s| s.name).collect::<Vec<_>>().join(", ");
 
@@ -508,9 +660,9 @@ impl Checker<'_> {
                     return Err(self.error(
                         &at("name"),
                         format!(
-                            "`{}` is not a parameter of the {} template; expected one of: {}",
+                            "`{}` is not a parameter of the {} equipment; expected one of: {}",
                             factor.name,
-                            adapter.name(),
+                            equipment.name(),
                             known_names()
                         ),
                     ))
@@ -541,8 +693,8 @@ impl Checker<'_> {
                     return Err(self.error(
                         &at,
                         format!(
-                            "`{name}` is not a parameter of the {} template; expected one of: {}",
-                            adapter.name(),
+                            "`{name}` is not a parameter of the {} equipment; expected one of: {}",
+                            equipment.name(),
                             known_names()
                         ),
                     ))
@@ -568,20 +720,10 @@ impl Checker<'_> {
         if file.replicates == 0 {
             return Err(self.error("replicates", "expected at least 1"));
         }
-        let cfd = match &file.cfd {
-            None => None,
-            Some(cfd) => Some(self.cfd_stage(cfd)?),
-        };
-        let mut known_responses = orch_granular::responses::response_names();
-        if cfd.is_some() {
-            known_responses.extend(
-                orch_adapters::openfoam::RESPONSES
-                    .iter()
-                    .map(|r| r.to_string()),
-            );
-        }
+        let stages = self.stages(&file, &simulation)?;
+        let known_responses = known_responses(&simulation, &stages);
         for (i, response) in file.responses.iter().enumerate() {
-            if !known_responses.contains(response) {
+            if !known_responses.contains(&response.as_str()) {
                 return Err(self.error(
                     &format!("responses[{i}]"),
                     format!(
@@ -591,12 +733,12 @@ impl Checker<'_> {
                 ));
             }
         }
-        let executor = self.executor(&file.executor, adapter)?;
+        let executor = self.executor(&file.executor, &simulation)?;
         let objective = match &file.objective {
             None => None,
             Some(objective) => {
                 let known = |field: &str, name: &str| {
-                    if known_responses.iter().any(|r| r == name) {
+                    if known_responses.contains(&name) {
                         Ok(())
                     } else {
                         Err(self.error(
@@ -697,7 +839,7 @@ impl Checker<'_> {
         };
         let study = Study {
             name: file.name,
-            adapter,
+            simulation,
             template,
             executor,
             factors,
@@ -711,14 +853,14 @@ impl Checker<'_> {
             rounds,
             metamodel,
             uncertainty,
-            cfd,
+            stages,
             file_text: text.to_string(),
             file_sha256: format!("{:x}", Sha256::digest(text.as_bytes())),
         };
         // Every point must describe something the solver can build.
         for (index, point) in study.points.iter().enumerate() {
             let case = study.case(point, 0);
-            if let Err(e) = adapter.check(&case) {
+            if let Err(e) = equipment.check(&case) {
                 let values: Vec<String> = study
                     .factors
                     .iter()
@@ -874,18 +1016,12 @@ impl Checker<'_> {
     fn executor(
         &self,
         executor: &ExecutorFile,
-        adapter: &dyn SolverAdapter,
+        simulation: &Simulation,
     ) -> Result<ExecutorConfig, StudyError> {
         let cores = std::thread::available_parallelism()
             .map(|n| n.get())
             .unwrap_or(1);
-        let per_job = adapter
-            .command(&Case {
-                parameters: Default::default(),
-                seed: 0,
-            })
-            .cores
-            .max(1);
+        let per_job = simulation.command().cores.max(1);
         if let Some(limit) = executor.time_limit {
             if limit.0.is_zero() {
                 return Err(self.error("executor.time_limit", "expected a positive duration"));

@@ -109,7 +109,7 @@ fn missing_template_is_refused() {
 fn unknown_parameter_and_out_of_range_values_are_refused() {
     let text = VALID.replace("name: valve_gap", "name: valve_gapp");
     let message = error(&text);
-    assert!(message.starts_with("jobs/study.yaml:10:12: factors[2].name: `valve_gapp` is not a parameter of the liggghts template; expected one of: n_particles,"), "{message}");
+    assert!(message.starts_with("jobs/study.yaml:10:12: factors[2].name: `valve_gapp` is not a parameter of the hopper equipment; expected one of: n_particles,"), "{message}");
     let text = VALID.replace("valve_diameter: 0.012", "restitution: 1.5");
     assert_eq!(
         error(&text),
@@ -255,5 +255,61 @@ fn slurm_options_are_checked_and_name_their_field() {
     assert!(
         local.contains("executor.partition: is a Slurm option; add `kind: slurm` to the executor, or remove it"),
         "{local}"
+    );
+}
+
+#[test]
+fn equipment_defaults_to_the_hopper_and_unknown_equipment_is_refused() {
+    let study = load(VALID).unwrap();
+    assert_eq!(study.simulation.equipment.name(), "hopper");
+    let named = load(&VALID.replace(
+        "solver: liggghts\n",
+        "equipment: hopper\nsolver: liggghts\n",
+    ));
+    assert_eq!(named.unwrap().file_sha256.len(), 64);
+    assert_eq!(
+        error(&VALID.replace("solver: liggghts\n", "equipment: silo\nsolver: liggghts\n")),
+        "jobs/study.yaml:2:12: equipment: unknown equipment `silo`; expected one of: hopper"
+    );
+}
+
+#[test]
+fn responses_come_from_the_equipment_and_its_stages() {
+    let study = load(VALID).unwrap();
+    assert!(study.known_responses().contains(&"discharge_rate"));
+    assert!(!study.known_responses().contains(&"air_ring_speed"));
+    assert_eq!(study.response_unit("discharge_rate"), Some("kg/s"));
+    let without = VALID.replace("responses: [discharge_rate, segregation_ratio]\n", "");
+    assert_eq!(
+        load(&without).unwrap().shown_responses(),
+        ["discharge_rate", "segregation_ratio"],
+        "the hopper's headline responses"
+    );
+    let with_stage = format!("{VALID}stages:\n  cfd: {{fixed: {{end_time: 0.2}}}}\n");
+    let study = load(&with_stage).unwrap();
+    assert_eq!(study.stages.len(), 1);
+    assert_eq!(study.stages[0].case().get("end_time"), 0.2);
+    assert!(study.known_responses().contains(&"air_ring_speed"));
+    // `cfd:` is shorthand for the same stage.
+    let shorthand = format!("{VALID}cfd:\n  fixed: {{end_time: 0.2}}\n");
+    assert_eq!(load(&shorthand).unwrap().stages[0].stage.kind(), "cfd");
+}
+
+#[test]
+fn stage_sections_are_checked() {
+    assert_eq!(
+        error(&format!("{VALID}stages:\n  dpm: {{}}\n")),
+        "jobs/study.yaml:19:8: stages.dpm: unknown stage `dpm`; expected one of: cfd"
+    );
+    assert!(error(&format!("{VALID}stages:\n  cfd: {{fixed: {{end_tme: 1}}}}\n")).starts_with(
+        "jobs/study.yaml:19:26: stages.cfd.fixed.end_tme: `end_tme` is not a parameter of the cfd stage; expected one of: air_density,"
+    ));
+    assert_eq!(
+        error(&format!("{VALID}cfd:\n  fixed: {{cores: 0}}\n")),
+        "jobs/study.yaml:19:18: cfd.fixed.cores: `cores` must lie within [1, 64] -, got 0"
+    );
+    assert_eq!(
+        error(&format!("{VALID}cfd: {{}}\nstages:\n  cfd: {{}}\n")),
+        "jobs/study.yaml:18:6: cfd: the cfd stage is given twice, as `cfd:` and under `stages:`; keep one"
     );
 }

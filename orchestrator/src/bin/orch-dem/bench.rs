@@ -11,9 +11,10 @@ use std::process::{Command, Stdio};
 
 use anyhow::{bail, Context};
 use clap::Args;
-use orch_adapters::liggghts::Liggghts;
-use orch_adapters::native::Native;
-use orch_adapters::{hopper, Case, Observations, ResolvedParameters, SolverAdapter};
+use orch_adapters::hopper::{self, Hopper};
+use orch_adapters::{
+    liggghts, native, Case, DemSolver, Equipment, Observations, ResolvedParameters, Simulation,
+};
 use orch_granular::{DischargeResponses, ResponseOptions};
 
 use crate::run;
@@ -69,16 +70,19 @@ fn case(args: &BenchArgs) -> Case {
     }
 }
 
-fn render(adapter: &dyn SolverAdapter, case: &Case, dir: &Path) -> anyhow::Result<()> {
+/// Renders the hopper `case` for `solver` into `dir`; returns the simulation.
+fn render(solver: &'static DemSolver, case: &Case, dir: &Path) -> anyhow::Result<Simulation> {
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
-    adapter
-        .render(
-            case,
-            adapter.default_template_name(),
-            adapter.default_template(),
-            dir,
-        )
-        .with_context(|| format!("cannot render the {} case", adapter.name()))
+    let simulation = Simulation::new(&Hopper, solver).context("no hopper template")?;
+    simulation
+        .render(case, &simulation.default_template(), dir)
+        .with_context(|| format!("cannot render the {} case", solver.name))?;
+    Ok(simulation)
+}
+
+/// What `solver` wrote into `dir`.
+fn observe(solver: &DemSolver, case: &Case, dir: &Path) -> anyhow::Result<Observations> {
+    Ok((solver.parse)(case, &Hopper.sensor(case), dir)?)
 }
 
 fn discharge_rate(observations: &Observations) -> f64 {
@@ -88,8 +92,7 @@ fn discharge_rate(observations: &Observations) -> f64 {
 }
 
 fn liggghts(case: &Case, dir: &Path) -> anyhow::Result<Measured> {
-    render(&Liggghts, case, dir)?;
-    let spec = Liggghts.command(case);
+    let spec = render(&liggghts::SOLVER, case, dir)?.command();
     let status = Command::new(&spec.program)
         .args(&spec.args)
         .current_dir(dir)
@@ -100,7 +103,7 @@ fn liggghts(case: &Case, dir: &Path) -> anyhow::Result<Measured> {
             format!(
                 "cannot start `{}`; install it with `{}` or pass --no-liggghts",
                 spec.program,
-                Liggghts.install_hint()
+                liggghts::SOLVER.install_hint
             )
         })?;
     if !status.success() {
@@ -109,7 +112,7 @@ fn liggghts(case: &Case, dir: &Path) -> anyhow::Result<Measured> {
             dir.join(&spec.log_file).display()
         );
     }
-    let observations = Liggghts.parse(case, dir)?;
+    let observations = observe(&liggghts::SOLVER, case, dir)?;
     Ok(Measured {
         label: "LIGGGHTS 1 core".to_string(),
         loop_time_s: observations.solver_loop_time_s.unwrap_or(f64::NAN),
@@ -120,13 +123,13 @@ fn liggghts(case: &Case, dir: &Path) -> anyhow::Result<Measured> {
 }
 
 fn native(case: &Case, dir: &Path, threads: usize) -> anyhow::Result<Measured> {
-    render(&Native, case, dir)?;
+    let simulation = render(&native::SOLVER, case, dir)?;
     let summary = run::run(
-        &dir.join(orch_adapters::native::CASE_FILE),
-        &dir.join(orch_adapters::native::LOG_FILE),
+        &dir.join(simulation.deck_file()),
+        &dir.join(native::LOG_FILE),
         threads,
     )?;
-    let observations = Native.parse(case, dir)?;
+    let observations = observe(&native::SOLVER, case, dir)?;
     Ok(Measured {
         label: format!(
             "native {threads} thread{}",

@@ -1,0 +1,87 @@
+//! DEM solvers: *which program* simulates an equipment, as small descriptors.
+//!
+//! A solver is data plus two functions: the deck's file extension, one Tera template per
+//! equipment it can simulate, the command that runs a rendered deck, how to install the
+//! program, and how to read what the program wrote into [`Observations`]. Everything
+//! about the equipment itself (parameters, geometry, responses) lives in the
+//! [`crate::Equipment`]; the [`crate::Simulation`] pairs the two.
+//!
+//! To add a solver: write its module with a `pub static SOLVER: DemSolver`, its
+//! templates under `templates/<solver>/<equipment>.<ext>.tera`, and list it in
+//! [`SOLVERS`].
+
+use std::path::Path;
+
+use crate::{Case, CommandSpec, Observations, ParseError, SensorPlane};
+
+/// A template a solver ships for one equipment.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SolverTemplate {
+    /// The equipment it renders.
+    pub equipment: &'static str,
+    /// Its path in the repository, for messages (`templates/liggghts/hopper.in.tera`).
+    pub path: &'static str,
+    /// Its text, compiled into the binary.
+    pub text: &'static str,
+}
+
+/// A DEM program behind `orch`.
+#[derive(Debug)]
+pub struct DemSolver {
+    /// Name used in study files (`solver: liggghts`).
+    pub name: &'static str,
+    /// Extension of the rendered deck: the deck is `<equipment>.<extension>`.
+    pub deck_extension: &'static str,
+    /// The solver's own log in the run directory.
+    pub log_file: &'static str,
+    /// How a user installs the program, for the message when it is missing.
+    pub install_hint: &'static str,
+    /// The default template of every equipment it can simulate.
+    pub templates: &'static [SolverTemplate],
+    /// The command that runs the deck named by the argument in the run directory.
+    pub command: fn(deck_file: &str) -> CommandSpec,
+    /// Reads what the program wrote into a run directory: crossings of `sensor`, loop
+    /// time and work, series.
+    pub parse:
+        fn(case: &Case, sensor: &SensorPlane, run_dir: &Path) -> Result<Observations, ParseError>,
+}
+
+impl DemSolver {
+    /// The default template for `equipment`, if this solver has one.
+    pub fn template_for(&self, equipment: &str) -> Option<&'static SolverTemplate> {
+        self.templates.iter().find(|t| t.equipment == equipment)
+    }
+
+    /// The program the command runs, for the "is it installed?" check.
+    pub fn program(&self) -> String {
+        (self.command)("deck").program
+    }
+}
+
+/// Every DEM solver `orch` knows.
+pub static SOLVERS: &[&DemSolver] = &[
+    &crate::liggghts::SOLVER,
+    &crate::native::SOLVER,
+    &crate::yade::SOLVER,
+];
+
+/// The solver called `name`, or `None`.
+pub fn solver_for(name: &str) -> Option<&'static DemSolver> {
+    SOLVERS.iter().copied().find(|s| s.name == name)
+}
+
+/// Names of every solver, for messages.
+pub fn solver_names() -> Vec<&'static str> {
+    SOLVERS.iter().map(|s| s.name).collect()
+}
+
+/// A command of `program` with `args`, one core, logging to `log_file`.
+pub(crate) fn one_core_command(program: String, args: &[&str], log_file: &str) -> CommandSpec {
+    CommandSpec {
+        program,
+        args: args.iter().map(|s| s.to_string()).collect(),
+        env: Default::default(),
+        cores: 1,
+        log_file: log_file.to_string(),
+    }
+}

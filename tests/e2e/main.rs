@@ -6,6 +6,7 @@
 //! machine's cores.
 
 mod architecture;
+mod concurrency;
 mod crash_resume;
 mod faults;
 mod native;

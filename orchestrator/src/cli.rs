@@ -203,6 +203,15 @@ async fn submit(
         )
     })?;
     let study_file = &std::path::absolute(study_file).unwrap_or_else(|_| study_file.to_path_buf());
+    if study.executor.kind == ExecutorKind::Slurm {
+        let runs = project.join(project::RUNS_DIR_NAME).join(&study.name);
+        crate::executor::slurm::script::check_value(
+            "the run directories' folder",
+            &runs.display().to_string(),
+            crate::executor::slurm::script::PATH_REMEDY,
+        )
+        .map_err(|e| input_error(format!("{e}; nothing was written")))?;
+    }
     let store = Store::open(&project).await?;
     match store.study_by_name(&study.name).await? {
         Some(existing) if existing.file_sha256 == study.file_sha256 => {

@@ -216,7 +216,7 @@ async fn submit(
     match store.study_by_name(&study.name).await? {
         Some(existing) if existing.file_sha256 == study.file_sha256 => {
             eprintln!("orch: study `{}` was submitted before from the same file; continuing it", study.name);
-            reopen(&store, &existing, false).await?;
+            claim_and_reopen(&store, &existing, false).await?;
         }
         Some(existing) => {
             return Err(input_error(format!(
@@ -527,6 +527,23 @@ async fn cancel(project_dir: Option<&Path>, name: &str) -> anyhow::Result<i32> {
     Ok(exit_codes::SUCCESS)
 }
 
+/// Claims the study for this process, then puts its cancelled (and with
+/// `retry_failed`, failed) jobs back in the queue. A study another live driver holds is
+/// refused before anything is written.
+async fn claim_and_reopen(store: &Store, row: &StudyRow, retry_failed: bool) -> anyhow::Result<()> {
+    let (pid, started) = process::current();
+    store
+        .claim_driver(row, pid, started, process::is_alive)
+        .await?;
+    if let Err(e) = reopen(store, row, retry_failed).await {
+        store
+            .release_driver(row.id, StudyState::Interrupted)
+            .await?;
+        return Err(e);
+    }
+    Ok(())
+}
+
 /// Puts cancelled (and with `retry_failed`, failed) jobs back in the queue.
 async fn reopen(store: &Store, row: &StudyRow, retry_failed: bool) -> anyhow::Result<()> {
     for job in store.jobs(row.id).await? {
@@ -542,7 +559,7 @@ async fn resume(project_dir: Option<&Path>, name: &str, retry_failed: bool) -> a
     let (store, row) = find(project_dir, name).await?;
     let study = stored_study(&row)
         .map_err(|e| input_error(format!("the stored study file no longer validates: {e}")))?;
-    reopen(&store, &row, retry_failed).await?;
+    claim_and_reopen(&store, &row, retry_failed).await?;
     if store
         .jobs(row.id)
         .await?

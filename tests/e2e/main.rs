@@ -12,6 +12,7 @@ mod faults;
 mod native;
 mod openfoam;
 mod real_liggghts;
+mod refusals;
 mod rounds;
 mod slurm;
 mod study_files;

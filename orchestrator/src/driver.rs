@@ -10,7 +10,7 @@
 //!    a finished one is parsed and its responses stored, a failed one is retried
 //!    within its budget or marked failed with the reason, a local job past its time
 //!    limit is terminated (Slurm enforces its own), and a job that vanished without an
-//!    exit status goes back to pending;
+//!    exit status is retried within its budget like a failure;
 //! 3. render and launch pending jobs while fewer than `max_parallel` (local) or
 //!    `max_submitted` (Slurm) are unfinished. A CFD stage waits until its DEM job has
 //!    succeeded and is rendered from that job's responses; when the DEM job failed or
@@ -423,9 +423,10 @@ impl<E: Executor> Driver<'_, E> {
                 }
             }
             JobStatus::Lost => {
-                let note = "it ended without an exit status (orch, the machine or the scheduler stopped?); it runs again";
-                self.report(job, note);
-                self.store.requeue(job.id, note, false).await?;
+                // A lost attempt spends the retry budget like any failure, or a solver
+                // that loses its own exit status would run again for ever.
+                let reason = "it ended without an exit status (orch, the machine or the scheduler stopped it, or its run directory was removed)".to_string();
+                self.fail_or_retry(job, None, reason).await?;
             }
         }
         Ok(())

@@ -676,11 +676,10 @@ fn clean_run_dir(run_dir: &Path) -> std::io::Result<()> {
 /// What a user needs to see of a failed run: the solver's `ERROR` lines, or else the
 /// last lines of its error output, standard output or log.
 pub fn failure_summary(run_dir: &Path, log_file: &str) -> String {
-    // Solvers may print bytes that are not UTF-8; a reason must survive them.
+    // Solvers may print gigabytes, and bytes that are not UTF-8: only a bounded head
+    // and tail of each file are read, and a reason must survive them.
     let read = |file: &str| {
-        std::fs::read(run_dir.join(file))
-            .map(|bytes| String::from_utf8_lossy(&bytes).into_owned())
-            .unwrap_or_default()
+        crate::tail::Windows::read(&run_dir.join(file), crate::tail::WINDOW).unwrap_or_default()
     };
     let log = read(log_file);
     let stdout = read(STDOUT_FILE);
@@ -692,14 +691,13 @@ pub fn failure_summary(run_dir: &Path, log_file: &str) -> String {
     if let Some(first) = errors.first() {
         return format!("it reported: {}", first.trim());
     }
-    for (name, text) in [
+    for (name, windows) in [
         (STDERR_FILE, read(STDERR_FILE)),
         (log_file, log),
         (STDOUT_FILE, stdout),
     ] {
-        let tail: Vec<&str> = text.lines().filter(|l| !l.trim().is_empty()).collect();
-        if !tail.is_empty() {
-            let last = &tail[tail.len().saturating_sub(5)..];
+        let last = windows.last_lines(5);
+        if !last.is_empty() {
             return format!("last lines of {name}: {}", last.join(" | "));
         }
     }

@@ -14,3 +14,4 @@ pub mod rounds;
 pub mod status;
 pub mod store;
 pub mod study;
+pub mod tail;

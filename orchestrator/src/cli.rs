@@ -9,6 +9,7 @@ use crate::driver::{self, Ending};
 use crate::executor::process::{self, ProcessHandle};
 use crate::executor::{Executor, SlurmExecutor};
 use crate::exit_codes;
+use crate::output::{errln, out, outln};
 use crate::project;
 use crate::rounds;
 use crate::status::{self, StudyDetail};
@@ -140,19 +141,19 @@ async fn submit(
 ) -> anyhow::Result<i32> {
     let study = Study::load(study_file).map_err(study_error)?;
     if dry_run {
-        println!(
+        outln!(
             "{}: {} design points × {} replicates = {} jobs on {}",
             study.name,
             study.points.len(),
             study.replicates,
             study.job_count(),
             study.adapter.name()
-        );
+        )?;
         if study.cfd.is_some() {
-            println!(
+            outln!(
                 "  each design job followed by an OpenFOAM stage ({} CFD jobs)",
                 study.points.len() * study.replicates as usize
-            );
+            )?;
         }
         for (i, point) in study.points.iter().enumerate() {
             let values: Vec<String> = study
@@ -161,7 +162,7 @@ async fn submit(
                 .zip(&point.natural)
                 .map(|(f, v)| format!("{} = {v:.6} {}", f.name, f.unit))
                 .collect();
-            println!("  p{i:03}: {}", values.join(", "));
+            outln!("  p{i:03}: {}", values.join(", "))?;
         }
         return Ok(exit_codes::SUCCESS);
     }
@@ -215,7 +216,7 @@ async fn submit(
     let store = Store::open(&project).await?;
     match store.study_by_name(&study.name).await? {
         Some(existing) if existing.file_sha256 == study.file_sha256 => {
-            eprintln!("orch: study `{}` was submitted before from the same file; continuing it", study.name);
+            errln!("orch: study `{}` was submitted before from the same file; continuing it", study.name);
             claim_and_reopen(&store, &existing, false).await?;
         }
         Some(existing) => {
@@ -229,7 +230,7 @@ async fn submit(
         None => {
             let runs = project.join(project::RUNS_DIR_NAME);
             store.insert_study(&study, study_file, &runs).await?;
-            eprintln!(
+            errln!(
                 "orch: study `{}`: {} jobs ({} points × {} replicates) on {}, at most {} at once; store {}",
                 study.name,
                 study.job_count(),
@@ -271,7 +272,7 @@ async fn drive(store: &Store, row: &StudyRow, study: &Study) -> anyhow::Result<i
     };
     store.release_driver(row.id, final_state).await?;
     let summary = outcome?;
-    eprintln!(
+    errln!(
         "orch: study `{}` {}: {} succeeded, {} failed, {} cancelled, {} unfinished; details: orch status {}",
         study.name,
         match summary.ending {
@@ -306,7 +307,7 @@ async fn drive_rounds(
         }
         match rounds::advance(store, study_id, study, runs_dir).await? {
             rounds::Advance::NextRound(next) => {
-                eprintln!("orch: round {} analysed; round {next} starts", next - 1);
+                errln!("orch: round {} analysed; round {next} starts", next - 1);
                 for line in status::rounds_summary(
                     &store.rounds(study_id).await?,
                     &study
@@ -317,12 +318,12 @@ async fn drive_rounds(
                 )
                 .lines()
                 {
-                    eprintln!("orch:   {line}");
+                    errln!("orch:   {line}");
                 }
             }
             rounds::Advance::Done(note) => {
                 if study.objective.is_some() || !study.responses.is_empty() {
-                    eprintln!("orch: analysis done: {note}");
+                    errln!("orch: analysis done: {note}");
                 }
                 return Ok(summary);
             }
@@ -349,7 +350,8 @@ async fn show_status(
     match study {
         None => {
             let stores = project::open_all(&project::discover(project_dir)).await?;
-            print!("{}", status::overview(&stores, as_json).await?);
+            let overview = status::overview(&stores, as_json).await?;
+            out!("{overview}")?;
         }
         Some(name) => {
             let (store, row) = find(project_dir, name).await?;
@@ -361,9 +363,9 @@ async fn show_status(
             let responses = stored_study(&row).map(|s| s.responses).unwrap_or_default();
             let detail = StudyDetail::load(&store, row).await?;
             if as_json {
-                println!("{}", serde_json::to_string_pretty(&detail.json(&project))?);
+                outln!("{}", serde_json::to_string_pretty(&detail.json(&project))?)?;
             } else {
-                print!("{}", detail.table(&responses));
+                out!("{}", detail.table(&responses))?;
             }
         }
     }
@@ -419,7 +421,7 @@ async fn logs(project_dir: Option<&Path>, reference: &str, tail: usize) -> anyho
             seed: 0,
         })
         .log_file;
-    println!(
+    outln!(
         "job {}/{}: {} after {} attempt(s){}",
         study.name,
         job.name,
@@ -429,7 +431,7 @@ async fn logs(project_dir: Option<&Path>, reference: &str, tail: usize) -> anyho
             .as_ref()
             .map(|e| format!("; {e}"))
             .unwrap_or_default()
-    );
+    )?;
     let run_dir = PathBuf::from(&job.run_dir);
     for file in [
         crate::executor::STDOUT_FILE,
@@ -437,7 +439,7 @@ async fn logs(project_dir: Option<&Path>, reference: &str, tail: usize) -> anyho
         log_file.as_str(),
     ] {
         let path = run_dir.join(file);
-        println!("==> {} <==", path.display());
+        outln!("==> {} <==", path.display())?;
         match std::fs::read(&path).map(|bytes| String::from_utf8_lossy(&bytes).into_owned()) {
             Ok(text) => {
                 let lines: Vec<&str> = text.lines().collect();
@@ -447,10 +449,10 @@ async fn logs(project_dir: Option<&Path>, reference: &str, tail: usize) -> anyho
                     lines.len().saturating_sub(tail)
                 };
                 for line in &lines[from..] {
-                    println!("{line}");
+                    outln!("{line}")?;
                 }
             }
-            Err(e) => println!("(cannot read: {e})"),
+            Err(e) => outln!("(cannot read: {e})")?,
         }
     }
     Ok(exit_codes::SUCCESS)
@@ -474,7 +476,7 @@ async fn show_fits(
             round.map(|n| format!(" {n}")).unwrap_or_default()
         )));
     };
-    print!("{}", status::fits_report(chosen));
+    out!("{}", status::fits_report(chosen))?;
     Ok(exit_codes::SUCCESS)
 }
 
@@ -523,7 +525,7 @@ async fn cancel(project_dir: Option<&Path>, name: &str) -> anyhow::Result<i32> {
             cancelled += 1;
         }
     }
-    eprintln!("orch: study `{name}` cancelled: {cancelled} jobs cancelled, {stopped}; `orch resume {name}` runs them again");
+    errln!("orch: study `{name}` cancelled: {cancelled} jobs cancelled, {stopped}; `orch resume {name}` runs them again");
     Ok(exit_codes::SUCCESS)
 }
 
@@ -566,7 +568,7 @@ async fn resume(project_dir: Option<&Path>, name: &str, retry_failed: bool) -> a
         .iter()
         .all(|j| j.state().is_final())
     {
-        eprintln!("orch: every job of `{name}` is final; nothing to resume (use --retry-failed to run failed jobs again)");
+        errln!("orch: every job of `{name}` is final; nothing to resume (use --retry-failed to run failed jobs again)");
     }
     drive(&store, &row, &study).await
 }

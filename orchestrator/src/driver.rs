@@ -34,6 +34,7 @@ use crate::executor::{
     Executor, JobStatus, LaunchSpec, LocalExecutor, Recovered, SlurmExecutor, StopCause, Watched,
     ATTEMPTS_LOG, STDERR_FILE, STDOUT_FILE,
 };
+use crate::output::errln;
 use crate::store::{now_s, JobResults, JobRow, JobState, PointRow, Store, StoreError, StudyState};
 use crate::study::{ExecutorKind, Study};
 
@@ -378,7 +379,7 @@ impl<E: Executor> Driver<'_, E> {
                     .last_poll_error
                     .is_none_or(|last| last.elapsed() >= POLL_ERROR_REPORT)
                 {
-                    eprintln!("orch: {e}; jobs are left as they are and asked about again");
+                    errln!("orch: {e}; jobs are left as they are and asked about again");
                     self.last_poll_error = Some(Instant::now());
                 }
                 return Ok(());
@@ -528,7 +529,7 @@ impl<E: Executor> Driver<'_, E> {
         let jobs = self.store.jobs(self.study_id).await?;
         if self.executor.is_batch() {
             let left = jobs.iter().filter(|j| is_launched(j.state())).count();
-            eprintln!(
+            errln!(
                 "orch: interrupted; {left} submitted jobs keep running on the cluster; `orch resume {}` re-attaches to them",
                 self.study.name
             );
@@ -539,7 +540,7 @@ impl<E: Executor> Driver<'_, E> {
             }
             return Ok(Ending::Interrupted);
         }
-        eprintln!(
+        errln!(
             "orch: interrupted; stopping running jobs (they will run again on `orch resume {}`)",
             self.study.name
         );
@@ -585,7 +586,7 @@ impl<E: Executor> Driver<'_, E> {
     }
 
     fn report(&self, job: &JobRow, message: &str) {
-        eprintln!(
+        errln!(
             "[{:>7.1} s] {}/{}: {message}",
             self.started.elapsed().as_secs_f64(),
             self.study.name,

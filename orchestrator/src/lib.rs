@@ -9,6 +9,7 @@ pub mod cli;
 pub mod driver;
 pub mod executor;
 pub mod exit_codes;
+pub mod output;
 pub mod project;
 pub mod rounds;
 pub mod status;

@@ -11,6 +11,7 @@ mod crash_resume;
 mod faults;
 mod native;
 mod openfoam;
+mod pipes;
 mod real_liggghts;
 mod refusals;
 mod rounds;

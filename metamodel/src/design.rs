@@ -72,7 +72,7 @@ pub enum DesignError {
     #[error("a Latin hypercube needs at least 2 samples, got {0}")]
     TooFewSamples(usize),
     /// The design would have more runs than anyone should launch by accident.
-    #[error("the design would have {runs} runs, more than the limit of {limit}")]
+    #[error("the design would have {runs} runs, more than the limit of {limit}; expected fewer levels, samples or centre points")]
     TooManyRuns {
         /// Runs the design would have.
         runs: usize,
@@ -92,8 +92,10 @@ pub struct Design {
 }
 
 impl Design {
-    /// Builds the design of `kind` over `n_factors` factors.
+    /// Builds the design of `kind` over `n_factors` factors. Its number of runs is
+    /// checked against [`MAX_RUNS`] (see [`run_count`]) before anything is allocated.
     pub fn build(kind: &DesignKind, n_factors: usize) -> Result<Design, DesignError> {
+        run_count(kind, n_factors)?;
         let points = match *kind {
             DesignKind::FullFactorial { levels } => full_factorial(n_factors, levels)?,
             DesignKind::CentralComposite {
@@ -119,6 +121,35 @@ impl Design {
     pub fn is_empty(&self) -> bool {
         self.points.is_empty()
     }
+}
+
+/// Number of runs a design of `kind` over `n_factors` factors has, computed without
+/// building it and without overflow; more than [`MAX_RUNS`] is refused.
+pub fn run_count(kind: &DesignKind, n_factors: usize) -> Result<usize, DesignError> {
+    let k = n_factors as u128;
+    let runs: u128 = match *kind {
+        DesignKind::FullFactorial { levels } => u32::try_from(n_factors)
+            .ok()
+            .and_then(|k| (levels as u128).checked_pow(k))
+            .unwrap_or(u128::MAX),
+        DesignKind::CentralComposite { center_points, .. } => u32::try_from(n_factors)
+            .ok()
+            .and_then(|k| 2u128.checked_pow(k))
+            .unwrap_or(u128::MAX)
+            .saturating_add(2 * k)
+            .saturating_add(center_points as u128),
+        DesignKind::BoxBehnken { center_points } => {
+            (2 * k * k.saturating_sub(1)).saturating_add(center_points as u128)
+        }
+        DesignKind::LatinHypercube { samples, .. } => samples as u128,
+    };
+    if runs > MAX_RUNS as u128 {
+        return Err(DesignError::TooManyRuns {
+            runs: runs.min(usize::MAX as u128) as usize,
+            limit: MAX_RUNS,
+        });
+    }
+    Ok(runs as usize)
 }
 
 fn require_factors(design: &'static str, min: usize, given: usize) -> Result<(), DesignError> {
@@ -383,6 +414,62 @@ mod tests {
             Design::build(&DesignKind::FullFactorial { levels: 10 }, 8),
             Err(DesignError::TooManyRuns { .. })
         ));
+    }
+
+    #[test]
+    fn centre_points_count_against_the_run_limit_before_anything_is_built() {
+        use CentralCompositeAlpha::{FaceCentred, Orthogonal};
+        for centre in [100_000_000_000, usize::MAX] {
+            for kind in [
+                DesignKind::CentralComposite {
+                    alpha: FaceCentred,
+                    center_points: centre,
+                },
+                DesignKind::CentralComposite {
+                    alpha: Orthogonal,
+                    center_points: centre,
+                },
+                DesignKind::BoxBehnken {
+                    center_points: centre,
+                },
+            ] {
+                assert!(
+                    matches!(
+                        Design::build(&kind, 3),
+                        Err(DesignError::TooManyRuns { .. })
+                    ),
+                    "{kind:?}"
+                );
+            }
+        }
+        // Two factors: 4 factorial + 4 axial runs, so 99 992 centre points reach the limit.
+        assert_eq!(ccd(FaceCentred, 2, 99_992).len(), MAX_RUNS);
+        assert_eq!(
+            Design::build(
+                &DesignKind::CentralComposite {
+                    alpha: FaceCentred,
+                    center_points: 99_993
+                },
+                2
+            ),
+            Err(DesignError::TooManyRuns {
+                runs: MAX_RUNS + 1,
+                limit: MAX_RUNS
+            })
+        );
+        // Three factors: 12 edge midpoints.
+        assert_eq!(
+            Design::build(
+                &DesignKind::BoxBehnken {
+                    center_points: 99_989
+                },
+                3
+            ),
+            Err(DesignError::TooManyRuns {
+                runs: MAX_RUNS + 1,
+                limit: MAX_RUNS
+            })
+        );
     }
 
     #[test]

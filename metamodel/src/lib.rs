@@ -16,7 +16,7 @@ pub mod propose;
 mod scaling;
 
 pub use basis::{Basis, BasisKind};
-pub use design::{CentralCompositeAlpha, Design, DesignError, DesignKind};
+pub use design::{run_count, CentralCompositeAlpha, Design, DesignError, DesignKind, MAX_RUNS};
 pub use fit::{Fit, FitError, Quality, TestQuality};
 pub use optimise::{optimise, optimise_subject_to, BoxBounds, Constraint, Goal, Optimum};
 pub use propagate::{propagate, Distribution, Spread};

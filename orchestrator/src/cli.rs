@@ -10,6 +10,7 @@ use crate::driver::{self, Ending};
 use crate::executor::process::{self, ProcessHandle};
 use crate::executor::{Executor, SlurmExecutor};
 use crate::exit_codes;
+use crate::output::{errln, out, outln};
 use crate::project;
 use crate::rounds;
 use crate::status::{self, StudyDetail};
@@ -156,7 +157,7 @@ pub async fn run(args: Args) -> anyhow::Result<i32> {
         } => {
             let solver = known_solver(&solver)?;
             let text = catalogue::template(&equipment, solver).map_err(input_error)?;
-            print!("{text}");
+            out!("{text}")?;
             Ok(exit_codes::SUCCESS)
         }
     }
@@ -272,7 +273,7 @@ fn params(name: Option<&str>, solver: Option<&str>, markdown: bool) -> anyhow::R
             }
         }
     };
-    print!("{text}");
+    out!("{text}")?;
     Ok(exit_codes::SUCCESS)
 }
 
@@ -299,21 +300,21 @@ async fn submit(
 ) -> anyhow::Result<i32> {
     let study = Study::load(study_file).map_err(study_error)?;
     if dry_run {
-        println!(
+        outln!(
             "{}: {} design points × {} replicates = {} jobs: {:?}",
             study.name,
             study.points.len(),
             study.replicates,
             study.job_count(),
             study.simulation
-        );
+        )?;
         for stage in &study.stages {
-            println!(
+            outln!(
                 "  each design job followed by a {} stage ({} jobs): {}",
                 stage.stage.kind(),
                 study.points.len() * study.replicates as usize,
                 stage.stage.description()
-            );
+            )?;
         }
         for (i, point) in study.points.iter().enumerate() {
             let values: Vec<String> = study
@@ -322,9 +323,9 @@ async fn submit(
                 .zip(&point.natural)
                 .map(|(f, v)| format!("{} = {v:.6} {}", f.name, f.unit))
                 .collect();
-            println!("  p{i:03}: {}", values.join(", "));
+            outln!("  p{i:03}: {}", values.join(", "))?;
         }
-        print!("{}", dry_run_summary(&study));
+        out!("{}", dry_run_summary(&study))?;
         return Ok(exit_codes::SUCCESS);
     }
     let solver = study.simulation.solver;
@@ -362,11 +363,20 @@ async fn submit(
         )
     })?;
     let study_file = &std::path::absolute(study_file).unwrap_or_else(|_| study_file.to_path_buf());
+    if study.executor.kind == ExecutorKind::Slurm {
+        let runs = project.join(project::RUNS_DIR_NAME).join(&study.name);
+        crate::executor::slurm::script::check_value(
+            "the run directories' folder",
+            &runs.display().to_string(),
+            crate::executor::slurm::script::PATH_REMEDY,
+        )
+        .map_err(|e| input_error(format!("{e}; nothing was written")))?;
+    }
     let store = Store::open(&project).await?;
     match store.study_by_name(&study.name).await? {
         Some(existing) if existing.file_sha256 == study.file_sha256 => {
-            eprintln!("orch: study `{}` was submitted before from the same file; continuing it", study.name);
-            reopen(&store, &existing, false).await?;
+            errln!("orch: study `{}` was submitted before from the same file; continuing it", study.name);
+            claim_and_reopen(&store, &existing, false).await?;
         }
         Some(existing) => {
             return Err(input_error(format!(
@@ -379,7 +389,7 @@ async fn submit(
         None => {
             let runs = project.join(project::RUNS_DIR_NAME);
             store.insert_study(&study, study_file, &runs).await?;
-            eprintln!(
+            errln!(
                 "orch: study `{}`: {} jobs ({} points × {} replicates) on {}, at most {} at once; store {}",
                 study.name,
                 study.job_count(),
@@ -421,7 +431,7 @@ async fn drive(store: &Store, row: &StudyRow, study: &Study) -> anyhow::Result<i
     };
     store.release_driver(row.id, final_state).await?;
     let summary = outcome?;
-    eprintln!(
+    errln!(
         "orch: study `{}` {}: {} succeeded, {} failed, {} cancelled, {} unfinished; details: orch status {}",
         study.name,
         match summary.ending {
@@ -456,7 +466,7 @@ async fn drive_rounds(
         }
         match rounds::advance(store, study_id, study, runs_dir).await? {
             rounds::Advance::NextRound(next) => {
-                eprintln!("orch: round {} analysed; round {next} starts", next - 1);
+                errln!("orch: round {} analysed; round {next} starts", next - 1);
                 for line in status::rounds_summary(
                     &store.rounds(study_id).await?,
                     &study
@@ -467,12 +477,12 @@ async fn drive_rounds(
                 )
                 .lines()
                 {
-                    eprintln!("orch:   {line}");
+                    errln!("orch:   {line}");
                 }
             }
             rounds::Advance::Done(note) => {
                 if study.objective.is_some() || !study.responses.is_empty() {
-                    eprintln!("orch: analysis done: {note}");
+                    errln!("orch: analysis done: {note}");
                 }
                 return Ok(summary);
             }
@@ -499,7 +509,8 @@ async fn show_status(
     match study {
         None => {
             let stores = project::open_all(&project::discover(project_dir)).await?;
-            print!("{}", status::overview(&stores, as_json).await?);
+            let overview = status::overview(&stores, as_json).await?;
+            out!("{overview}")?;
         }
         Some(name) => {
             let (store, row) = find(project_dir, name).await?;
@@ -513,9 +524,9 @@ async fn show_status(
                 .unwrap_or_default();
             let detail = StudyDetail::load(&store, row).await?;
             if as_json {
-                println!("{}", serde_json::to_string_pretty(&detail.json(&project))?);
+                outln!("{}", serde_json::to_string_pretty(&detail.json(&project))?)?;
             } else {
-                print!("{}", detail.table(&responses));
+                out!("{}", detail.table(&responses))?;
             }
         }
     }
@@ -573,7 +584,7 @@ async fn logs(project_dir: Option<&Path>, reference: &str, tail: usize) -> anyho
                 .log_file
         }
     };
-    println!(
+    outln!(
         "job {}/{}: {} after {} attempt(s){}",
         study.name,
         job.name,
@@ -583,7 +594,7 @@ async fn logs(project_dir: Option<&Path>, reference: &str, tail: usize) -> anyho
             .as_ref()
             .map(|e| format!("; {e}"))
             .unwrap_or_default()
-    );
+    )?;
     let run_dir = PathBuf::from(&job.run_dir);
     for file in [
         crate::executor::STDOUT_FILE,
@@ -591,7 +602,7 @@ async fn logs(project_dir: Option<&Path>, reference: &str, tail: usize) -> anyho
         log_file,
     ] {
         let path = run_dir.join(file);
-        println!("==> {} <==", path.display());
+        outln!("==> {} <==", path.display())?;
         match std::fs::read(&path).map(|bytes| String::from_utf8_lossy(&bytes).into_owned()) {
             Ok(text) => {
                 let lines: Vec<&str> = text.lines().collect();
@@ -601,10 +612,10 @@ async fn logs(project_dir: Option<&Path>, reference: &str, tail: usize) -> anyho
                     lines.len().saturating_sub(tail)
                 };
                 for line in &lines[from..] {
-                    println!("{line}");
+                    outln!("{line}")?;
                 }
             }
-            Err(e) => println!("(cannot read: {e})"),
+            Err(e) => outln!("(cannot read: {e})")?,
         }
     }
     Ok(exit_codes::SUCCESS)
@@ -628,7 +639,7 @@ async fn show_fits(
             round.map(|n| format!(" {n}")).unwrap_or_default()
         )));
     };
-    print!("{}", status::fits_report(chosen));
+    out!("{}", status::fits_report(chosen))?;
     Ok(exit_codes::SUCCESS)
 }
 
@@ -677,8 +688,25 @@ async fn cancel(project_dir: Option<&Path>, name: &str) -> anyhow::Result<i32> {
             cancelled += 1;
         }
     }
-    eprintln!("orch: study `{name}` cancelled: {cancelled} jobs cancelled, {stopped}; `orch resume {name}` runs them again");
+    errln!("orch: study `{name}` cancelled: {cancelled} jobs cancelled, {stopped}; `orch resume {name}` runs them again");
     Ok(exit_codes::SUCCESS)
+}
+
+/// Claims the study for this process, then puts its cancelled (and with
+/// `retry_failed`, failed) jobs back in the queue. A study another live driver holds is
+/// refused before anything is written.
+async fn claim_and_reopen(store: &Store, row: &StudyRow, retry_failed: bool) -> anyhow::Result<()> {
+    let (pid, started) = process::current();
+    store
+        .claim_driver(row, pid, started, process::is_alive)
+        .await?;
+    if let Err(e) = reopen(store, row, retry_failed).await {
+        store
+            .release_driver(row.id, StudyState::Interrupted)
+            .await?;
+        return Err(e);
+    }
+    Ok(())
 }
 
 /// Puts cancelled (and with `retry_failed`, failed) jobs back in the queue.
@@ -696,14 +724,14 @@ async fn resume(project_dir: Option<&Path>, name: &str, retry_failed: bool) -> a
     let (store, row) = find(project_dir, name).await?;
     let study = stored_study(&row)
         .map_err(|e| input_error(format!("the stored study file no longer validates: {e}")))?;
-    reopen(&store, &row, retry_failed).await?;
+    claim_and_reopen(&store, &row, retry_failed).await?;
     if store
         .jobs(row.id)
         .await?
         .iter()
         .all(|j| j.state().is_final())
     {
-        eprintln!("orch: every job of `{name}` is final; nothing to resume (use --retry-failed to run failed jobs again)");
+        errln!("orch: every job of `{name}` is final; nothing to resume (use --retry-failed to run failed jobs again)");
     }
     drive(&store, &row, &study).await
 }

@@ -10,7 +10,7 @@
 //!    a finished one is parsed and its responses stored, a failed one is retried
 //!    within its budget or marked failed with the reason, a local job past its time
 //!    limit is terminated (Slurm enforces its own), and a job that vanished without an
-//!    exit status goes back to pending;
+//!    exit status is retried within its budget like a failure;
 //! 3. render and launch pending jobs while fewer than `max_parallel` (local) or
 //!    `max_submitted` (Slurm) are unfinished. A stage job (e.g. OpenFOAM after DEM)
 //!    waits until its upstream job has succeeded and is rendered from that job's case
@@ -36,6 +36,7 @@ use crate::executor::{
     Executor, JobStatus, LaunchSpec, LocalExecutor, Recovered, SlurmExecutor, StopCause, Watched,
     ATTEMPTS_LOG, STDERR_FILE, STDOUT_FILE,
 };
+use crate::output::errln;
 use crate::store::{now_s, JobResults, JobRow, JobState, PointRow, Store, StoreError, StudyState};
 use crate::study::{ExecutorKind, StageConfig, Study};
 
@@ -383,7 +384,7 @@ impl<E: Executor> Driver<'_, E> {
                     .last_poll_error
                     .is_none_or(|last| last.elapsed() >= POLL_ERROR_REPORT)
                 {
-                    eprintln!("orch: {e}; jobs are left as they are and asked about again");
+                    errln!("orch: {e}; jobs are left as they are and asked about again");
                     self.last_poll_error = Some(Instant::now());
                 }
                 return Ok(());
@@ -428,9 +429,10 @@ impl<E: Executor> Driver<'_, E> {
                 }
             }
             JobStatus::Lost => {
-                let note = "it ended without an exit status (orch, the machine or the scheduler stopped?); it runs again";
-                self.report(job, note);
-                self.store.requeue(job.id, note, false).await?;
+                // A lost attempt spends the retry budget like any failure, or a solver
+                // that loses its own exit status would run again for ever.
+                let reason = "it ended without an exit status (orch, the machine or the scheduler stopped it, or its run directory was removed)".to_string();
+                self.fail_or_retry(job, None, reason).await?;
             }
         }
         Ok(())
@@ -536,7 +538,7 @@ impl<E: Executor> Driver<'_, E> {
         let jobs = self.store.jobs(self.study_id).await?;
         if self.executor.is_batch() {
             let left = jobs.iter().filter(|j| is_launched(j.state())).count();
-            eprintln!(
+            errln!(
                 "orch: interrupted; {left} submitted jobs keep running on the cluster; `orch resume {}` re-attaches to them",
                 self.study.name
             );
@@ -547,7 +549,7 @@ impl<E: Executor> Driver<'_, E> {
             }
             return Ok(Ending::Interrupted);
         }
-        eprintln!(
+        errln!(
             "orch: interrupted; stopping running jobs (they will run again on `orch resume {}`)",
             self.study.name
         );
@@ -593,7 +595,7 @@ impl<E: Executor> Driver<'_, E> {
     }
 
     fn report(&self, job: &JobRow, message: &str) {
-        eprintln!(
+        errln!(
             "[{:>7.1} s] {}/{}: {message}",
             self.started.elapsed().as_secs_f64(),
             self.study.name,
@@ -651,11 +653,10 @@ fn clean_run_dir(run_dir: &Path) -> std::io::Result<()> {
 /// What a user needs to see of a failed run: the solver's `ERROR` lines, or else the
 /// last lines of its error output, standard output or log.
 pub fn failure_summary(run_dir: &Path, log_file: &str) -> String {
-    // Solvers may print bytes that are not UTF-8; a reason must survive them.
+    // Solvers may print gigabytes, and bytes that are not UTF-8: only a bounded head
+    // and tail of each file are read, and a reason must survive them.
     let read = |file: &str| {
-        std::fs::read(run_dir.join(file))
-            .map(|bytes| String::from_utf8_lossy(&bytes).into_owned())
-            .unwrap_or_default()
+        crate::tail::Windows::read(&run_dir.join(file), crate::tail::WINDOW).unwrap_or_default()
     };
     let log = read(log_file);
     let stdout = read(STDOUT_FILE);
@@ -667,14 +668,13 @@ pub fn failure_summary(run_dir: &Path, log_file: &str) -> String {
     if let Some(first) = errors.first() {
         return format!("it reported: {}", first.trim());
     }
-    for (name, text) in [
+    for (name, windows) in [
         (STDERR_FILE, read(STDERR_FILE)),
         (log_file, log),
         (STDOUT_FILE, stdout),
     ] {
-        let tail: Vec<&str> = text.lines().filter(|l| !l.trim().is_empty()).collect();
-        if !tail.is_empty() {
-            let last = &tail[tail.len().saturating_sub(5)..];
+        let last = windows.last_lines(5);
+        if !last.is_empty() {
             return format!("last lines of {name}: {}", last.join(" | "));
         }
     }

@@ -17,6 +17,9 @@ fn main() {
                 .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(filter)),
         )
         .with_writer(std::io::stderr)
+        // A log line that cannot be written (stderr a closed pipe) is dropped; the
+        // default reports it with `eprintln!`, which panics on that same pipe.
+        .log_internal_errors(false)
         .init();
     let runtime = tokio::runtime::Builder::new_multi_thread()
         .enable_all()
@@ -25,7 +28,7 @@ fn main() {
     let code = match runtime.block_on(cli::run(args)) {
         Ok(code) => code,
         Err(error) => {
-            eprintln!("error: {error:#}");
+            orch::output::stderr(format_args!("error: {error:#}\n"));
             if error.downcast_ref::<InputError>().is_some() {
                 exit_codes::BAD_INPUT
             } else {

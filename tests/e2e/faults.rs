@@ -1,6 +1,9 @@
 //! Solvers that fail, hang or leave broken output: each job fails with the reason and
 //! the study goes on.
 
+use std::process::Stdio;
+use std::time::{Duration, Instant};
+
 use crate::support::{default_liggghts_template, require_liggghts, solver_lock, text, Project};
 
 /// Four short runs; the template misbehaves on purpose at three of them (chosen by
@@ -111,4 +114,49 @@ fn failing_hanging_and_truncating_solvers_fail_their_jobs_and_the_study_goes_on(
         logs.contains("ERROR: Unknown command: frobnicate 3"),
         "{logs}"
     );
+}
+
+/// A solver that deletes its own run directory (a fake LIGGGHTS, supervision only)
+/// ends without an exit status; each such attempt spends the retry budget, and the
+/// job then fails with the reason instead of running again for ever.
+#[test]
+fn an_attempt_lost_without_an_exit_status_spends_the_retry_budget() {
+    let mut project = Project::new();
+    project.fake_program("liggghts", "rm -rf \"$PWD\"");
+    let file = project.write(
+        "lost.yaml",
+        "name: lost\n\
+         solver: liggghts\n\
+         executor: {max_parallel: 2, time_limit: 1min, retries: 1}\n\
+         factors:\n  - {name: amplitude, min: 0.0, max: 0.0006}\n\
+         fixed: {n_particles: 400, fill_time: 0.1, discharge_time: 0.5, outlet_diameter: 0.020}\n\
+         design: {type: full_factorial, levels: 2}\n",
+    );
+    let mut orch = project
+        .orch(&["submit", file.to_str().unwrap()])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let deadline = Instant::now() + Duration::from_secs(30);
+    let code = loop {
+        if let Some(status) = orch.try_wait().unwrap() {
+            break status.code();
+        }
+        if Instant::now() > deadline {
+            orch.kill().unwrap();
+            orch.wait().unwrap();
+            let attempts = project.query("SELECT name, attempts, state FROM jobs");
+            panic!("orch still ran the lost jobs after 30 s: {attempts:?}");
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    };
+    assert_eq!(code, Some(1), "the study ends with failed jobs");
+    let status = project.status("lost");
+    for job in status["jobs"].as_array().unwrap() {
+        assert_eq!(job["state"], "failed", "{job}");
+        assert_eq!(job["attempts"], 2, "one try and one retry: {job}");
+        let error = job["error"].as_str().unwrap();
+        assert!(error.contains("without an exit status"), "{error}");
+    }
 }

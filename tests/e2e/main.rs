@@ -6,11 +6,14 @@
 //! machine's cores.
 
 mod architecture;
+mod concurrency;
 mod crash_resume;
 mod faults;
 mod native;
 mod openfoam;
+mod pipes;
 mod real_liggghts;
+mod refusals;
 mod rounds;
 mod slurm;
 mod study_files;

@@ -77,6 +77,58 @@ fn every_kind_of_bad_study_file_is_refused_before_anything_is_written() {
     }
 }
 
+/// Job counts far past the run limit are refused at once (not after minutes of
+/// building points, nor by aborting on a huge allocation), and nothing is written.
+#[test]
+fn oversized_designs_replicates_and_samples_are_refused_at_once() {
+    let two = GOOD.replace(
+        "  - {name: outlet_diameter, min: 0.020, max: 0.028}\n",
+        "  - {name: outlet_diameter, min: 0.020, max: 0.028}\n  - {name: amplitude, min: 0.0, max: 0.0006}\n",
+    );
+    let three = two.replace(
+        "  - {name: amplitude, min: 0.0, max: 0.0006}\n",
+        "  - {name: amplitude, min: 0.0, max: 0.0006}\n  - {name: frequency, min: 20, max: 50}\n",
+    );
+    let cases = [
+        (
+            two.replace(
+                "{type: full_factorial, levels: 2}",
+                "{type: central_composite, center_points: 100000000000}",
+            ),
+            "study.yaml:6:50: design.center_points: expected at most 100000 centre points, got 100000000000",
+        ),
+        (
+            three.replace(
+                "{type: full_factorial, levels: 2}",
+                "{type: box_behnken, center_points: 1000000}",
+            ),
+            "study.yaml:7:44: design.center_points: expected at most 100000 centre points, got 1000000",
+        ),
+        (
+            format!("{GOOD}replicates: 4000000000\n"),
+            "study.yaml:6:13: replicates: expected 1 to 100000 replicates, got 4000000000",
+        ),
+        (
+            format!("{two}uncertainty:\n  samples: 10000000000000\n  parameters: [{{name: amplitude, distribution: uniform, low: 0.0, high: 0.0006}}]\n"),
+            "study.yaml:8:12: uncertainty.samples: expected at most 10000000 samples (10^7), got 10000000000000",
+        ),
+    ];
+    for (study, expected) in cases {
+        let started = std::time::Instant::now();
+        let stderr = refused(&study);
+        assert!(
+            stderr.contains(expected),
+            "expected `{expected}` in:\n{stderr}"
+        );
+        assert!(stderr.contains("nothing was written"), "{stderr}");
+        assert!(
+            started.elapsed() < std::time::Duration::from_secs(10),
+            "took {:?} to refuse",
+            started.elapsed()
+        );
+    }
+}
+
 #[test]
 fn a_missing_solver_is_refused_before_anything_is_written() {
     let stderr = refused_with_empty_path(GOOD);

@@ -148,6 +148,26 @@ impl Project {
         project
     }
 
+    /// Puts a fake program `name` (a shell script of `body`) first on the PATH of every
+    /// `orch` this project runs. For tests of supervision only: fakes never stand in
+    /// for a solver's results.
+    pub fn fake_program(&mut self, name: &str, body: &str) {
+        use std::os::unix::fs::PermissionsExt;
+        let bin = self.dir.path().join("fake-bin");
+        std::fs::create_dir_all(&bin).unwrap();
+        let path = bin.join(name);
+        std::fs::write(&path, format!("#!/bin/sh\n{body}\n")).unwrap();
+        std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o755)).unwrap();
+        if !self.env.iter().any(|(k, _)| k == "PATH") {
+            let mut paths = vec![bin];
+            paths.extend(std::env::split_paths(
+                &std::env::var_os("PATH").unwrap_or_default(),
+            ));
+            self.env
+                .push(("PATH".into(), std::env::join_paths(paths).unwrap()));
+        }
+    }
+
     /// The project directory `orch` uses.
     pub fn project_dir(&self) -> PathBuf {
         self.dir.path().join(".orch")

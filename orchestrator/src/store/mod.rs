@@ -4,6 +4,13 @@
 //! a job transition is guarded by the state the caller expects (`UPDATE … WHERE state
 //! IN (…)`), so two processes can never both move the same job, and every transition
 //! is recorded in `job_events`. The database is `<project>/orch.db` in WAL mode.
+//!
+//! Several `orch` processes share one store (two studies submitted into one project,
+//! `orch status` while they run). So every transaction that writes begins `IMMEDIATE`
+//! (takes the write lock before its first read: a deferred transaction that read and
+//! then wants to write cannot wait for the lock, SQLite fails it with "database is
+//! locked" at once), and the schema is created and migrated under an exclusive `flock`
+//! of [`LOCK_FILE`], so two processes never both apply the same migration.
 
 mod rounds;
 mod rows;
@@ -23,6 +30,14 @@ use crate::study::Study;
 
 /// Name of the database file inside a project directory.
 pub const DATABASE_FILE: &str = "orch.db";
+/// Name of the file beside the database whose exclusive `flock` serialises opening
+/// and migrating the store.
+pub const LOCK_FILE: &str = "orch.db.lock";
+/// How long a statement waits for another process's write lock before failing.
+const BUSY_TIMEOUT: Duration = Duration::from_secs(120);
+/// How a transaction that writes begins: with the write lock taken, so that the
+/// busy timeout applies to it (see the module documentation).
+const BEGIN_WRITE: &str = "BEGIN IMMEDIATE";
 
 /// Why the store could not do what was asked.
 #[derive(Debug, thiserror::Error)]
@@ -110,13 +125,20 @@ impl Store {
                 source: sqlx::Error::Io(e),
             });
         }
+        // Held until the schema is up to date; dropping it unlocks.
+        let _lock = lock_exclusively(&project_dir.join(LOCK_FILE))
+            .await
+            .map_err(|e| StoreError::Open {
+                path: path.clone(),
+                source: sqlx::Error::Io(e),
+            })?;
         let options = SqliteConnectOptions::new()
             .filename(&path)
             .create_if_missing(true)
             .journal_mode(SqliteJournalMode::Wal)
             .synchronous(SqliteSynchronous::Normal)
             .foreign_keys(true)
-            .busy_timeout(Duration::from_secs(30));
+            .busy_timeout(BUSY_TIMEOUT);
         let pool = SqlitePoolOptions::new()
             .max_connections(4)
             .connect_with(options)
@@ -133,6 +155,14 @@ impl Store {
                 source,
             })?;
         Ok(Store { pool, path })
+    }
+
+    /// Begins a transaction that will write, holding the write lock from the start.
+    async fn begin_write(&self) -> Result<sqlx::Transaction<'static, sqlx::Sqlite>, StoreError> {
+        self.pool
+            .begin_with(BEGIN_WRITE)
+            .await
+            .map_err(query_error("start a transaction"))
     }
 
     /// Opens an existing store; `None` when `project_dir` holds no database.
@@ -162,11 +192,7 @@ impl Store {
         runs_root: &Path,
     ) -> Result<i64, StoreError> {
         let now = now_s();
-        let mut tx = self
-            .pool
-            .begin()
-            .await
-            .map_err(query_error("start a transaction"))?;
+        let mut tx = self.begin_write().await?;
         let study_id: i64 = sqlx::query(
             "INSERT INTO studies (name, solver, file_path, file_text, file_sha256, template_name,
                                   template_text, state, created_at, updated_at)
@@ -275,11 +301,7 @@ impl Store {
         started: i64,
         is_alive: impl Fn(i64, i64) -> bool,
     ) -> Result<(), StoreError> {
-        let mut tx = self
-            .pool
-            .begin()
-            .await
-            .map_err(query_error("start a transaction"))?;
+        let mut tx = self.begin_write().await?;
         let holder: (Option<i64>, Option<i64>) =
             sqlx::query_as("SELECT driver_pid, driver_started FROM studies WHERE id = ?")
                 .bind(study.id)
@@ -509,11 +531,7 @@ impl Store {
         binds: Vec<Bind>,
         note: Option<&str>,
     ) -> Result<(), StoreError> {
-        let mut tx = self
-            .pool
-            .begin()
-            .await
-            .map_err(query_error("start a transaction"))?;
+        let mut tx = self.begin_write().await?;
         self.transition(&mut tx, job_id, from, to, set, binds, note)
             .await?;
         tx.commit()
@@ -602,11 +620,7 @@ impl Store {
         exit_code: i32,
         results: &JobResults,
     ) -> Result<(), StoreError> {
-        let mut tx = self
-            .pool
-            .begin()
-            .await
-            .map_err(query_error("start a transaction"))?;
+        let mut tx = self.begin_write().await?;
         self.transition(
             &mut tx,
             job_id,
@@ -736,6 +750,23 @@ impl Store {
         )
         .await
     }
+}
+
+/// Takes an exclusive `flock` of `path` (created if missing), waiting for any other
+/// holder; the lock is released when the returned value is dropped.
+async fn lock_exclusively(path: &Path) -> std::io::Result<nix::fcntl::Flock<std::fs::File>> {
+    let path = path.to_path_buf();
+    tokio::task::spawn_blocking(move || {
+        let file = std::fs::OpenOptions::new()
+            .create(true)
+            .truncate(false)
+            .write(true)
+            .open(&path)?;
+        nix::fcntl::Flock::lock(file, nix::fcntl::FlockArg::LockExclusive)
+            .map_err(|(_, errno)| std::io::Error::from(errno))
+    })
+    .await
+    .map_err(std::io::Error::other)?
 }
 
 /// Whether points are fitted or held out to test the fit.

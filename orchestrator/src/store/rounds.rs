@@ -145,11 +145,7 @@ impl Store {
         record: &RoundRecord,
         runs_dir: &Path,
     ) -> Result<(), StoreError> {
-        let mut tx = self
-            .pool
-            .begin()
-            .await
-            .map_err(query_error("start a transaction"))?;
+        let mut tx = self.begin_write().await?;
         let round = record.round;
         for fit in &record.fits {
             let (quality, error) = match &fit.result {

@@ -15,7 +15,7 @@ use orch_adapters::{
     ParameterSpec, ResolvedParameters, Simulation, Stage, DEFAULT_EQUIPMENT,
 };
 use orch_metamodel::{
-    BasisKind, CentralCompositeAlpha, Design, DesignKind, Distribution, FactorRange, Goal,
+    BasisKind, CentralCompositeAlpha, Design, DesignKind, Distribution, FactorRange, Goal, MAX_RUNS,
 };
 use sha2::{Digest, Sha256};
 
@@ -26,6 +26,10 @@ pub use file::{ExecutorKind, StudyFile};
 
 use crate::executor::SlurmSettings;
 pub use locate::Location;
+
+/// Most Monte Carlo samples `uncertainty.samples` may ask for: each round's analysis
+/// holds them all in memory.
+pub const MAX_UNCERTAINTY_SAMPLES: usize = 10_000_000;
 
 /// A study file that cannot be used, with where and why.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -702,6 +706,15 @@ impl Checker<'_> {
                 _ => {}
             }
         }
+        if file.replicates == 0 || file.replicates as usize > MAX_RUNS {
+            return Err(self.error(
+                "replicates",
+                format!(
+                    "expected 1 to {MAX_RUNS} replicates, got {}",
+                    file.replicates
+                ),
+            ));
+        }
         let design_kind = self.design_kind(&file.design, file.seed)?;
         let design = Design::build(&design_kind, factors.len())
             .map_err(|e| self.error("design", e.to_string()))?;
@@ -717,9 +730,6 @@ impl Checker<'_> {
                 coded,
             })
             .collect();
-        if file.replicates == 0 {
-            return Err(self.error("replicates", "expected at least 1"));
-        }
         let stages = self.stages(&file, &simulation)?;
         let known_responses = known_responses(&simulation, &stages);
         for (i, response) in file.responses.iter().enumerate() {
@@ -837,6 +847,13 @@ impl Checker<'_> {
             None => None,
             Some(u) => Some(self.uncertainty(u, &factors)?),
         };
+        self.check_job_count(
+            points.len(),
+            metamodel.test_points,
+            file.replicates,
+            stages.len(),
+            rounds,
+        )?;
         let study = Study {
             name: file.name,
             simulation,
@@ -879,6 +896,50 @@ impl Checker<'_> {
         Ok(study)
     }
 
+    /// Refuses a study that would run more than [`MAX_RUNS`] jobs over all its rounds:
+    /// (design points × (1 + a job per stage kind) + test points) × replicates × rounds.
+    fn check_job_count(
+        &self,
+        design_points: usize,
+        test_points: usize,
+        replicates: u32,
+        stage_kinds: usize,
+        rounds: u32,
+    ) -> Result<(), StudyError> {
+        let stages = 1 + stage_kinds as u128;
+        let jobs = (design_points as u128)
+            .saturating_mul(stages)
+            .saturating_add(test_points as u128)
+            .saturating_mul(replicates as u128)
+            .saturating_mul(rounds as u128);
+        if jobs <= MAX_RUNS as u128 {
+            return Ok(());
+        }
+        let field = if replicates > 1 {
+            "replicates"
+        } else if rounds > 1 {
+            "rounds"
+        } else {
+            "design"
+        };
+        let plural = |n: u128, word: &str| format!("{n} {word}{}", if n == 1 { "" } else { "s" });
+        let stage = if stage_kinds > 0 {
+            format!(" × {stages} jobs (the design job and its stages) of each design point")
+        } else {
+            String::new()
+        };
+        Err(self.error(
+            field,
+            format!(
+                "the study would run {jobs} jobs (({} design points + {} test points) × {}{stage} × {}), more than the limit of {MAX_RUNS}; expected fewer replicates, points or rounds",
+                design_points,
+                test_points,
+                plural(replicates as u128, "replicate"),
+                plural(rounds as u128, "round"),
+            ),
+        ))
+    }
+
     fn uncertainty(
         &self,
         file: &file::UncertaintyFile,
@@ -888,6 +949,15 @@ impl Checker<'_> {
             return Err(self.error(
                 "uncertainty.samples",
                 format!("expected at least 100 samples, got {}", file.samples),
+            ));
+        }
+        if file.samples > MAX_UNCERTAINTY_SAMPLES {
+            return Err(self.error(
+                "uncertainty.samples",
+                format!(
+                    "expected at most {MAX_UNCERTAINTY_SAMPLES} samples (10^7), got {}",
+                    file.samples
+                ),
             ));
         }
         let mut parameters = Vec::new();
@@ -943,6 +1013,18 @@ impl Checker<'_> {
         })
     }
 
+    /// A design's centre points (default 1), at most [`MAX_RUNS`].
+    fn center_points(&self, design: &DesignFile) -> Result<usize, StudyError> {
+        let centre = design.center_points.unwrap_or(1);
+        if centre > MAX_RUNS {
+            return Err(self.error(
+                "design.center_points",
+                format!("expected at most {MAX_RUNS} centre points, got {centre}"),
+            ));
+        }
+        Ok(centre)
+    }
+
     fn design_kind(&self, design: &DesignFile, study_seed: u64) -> Result<DesignKind, StudyError> {
         let refuse = |field: &str, present: bool, kind: &str| {
             if present {
@@ -978,7 +1060,7 @@ impl Checker<'_> {
                         AlphaFile::Rotatable => CentralCompositeAlpha::Rotatable,
                         AlphaFile::FaceCentred => CentralCompositeAlpha::FaceCentred,
                     },
-                    center_points: design.center_points.unwrap_or(1),
+                    center_points: self.center_points(design)?,
                 }
             }
             DesignType::BoxBehnken => {
@@ -987,7 +1069,7 @@ impl Checker<'_> {
                 refuse("samples", design.samples.is_some(), "box_behnken")?;
                 refuse("seed", design.seed.is_some(), "box_behnken")?;
                 DesignKind::BoxBehnken {
-                    center_points: design.center_points.unwrap_or(1),
+                    center_points: self.center_points(design)?,
                 }
             }
             DesignType::LatinHypercube => {

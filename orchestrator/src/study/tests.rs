@@ -313,3 +313,49 @@ fn stage_sections_are_checked() {
         "jobs/study.yaml:18:6: cfd: the cfd stage is given twice, as `cfd:` and under `stages:`; keep one"
     );
 }
+
+#[test]
+fn every_path_to_a_job_count_is_bounded_before_anything_is_allocated() {
+    let ccd = VALID.replace("center_points: 1", "center_points: 200000");
+    assert_eq!(
+        error(&ccd),
+        "jobs/study.yaml:16:18: design.center_points: expected at most 100000 centre points, got 200000"
+    );
+    let bb = VALID
+        .replace("type: central_composite", "type: box_behnken")
+        .replace("  alpha: orthogonal\n", "")
+        .replace("center_points: 1", "center_points: 200000");
+    assert_eq!(
+        error(&bb),
+        "jobs/study.yaml:15:18: design.center_points: expected at most 100000 centre points, got 200000"
+    );
+    let near = VALID.replace("center_points: 1", "center_points: 99990");
+    assert_eq!(
+        error(&near),
+        "jobs/study.yaml:14:7: design: the design would have 100004 runs, more than the limit of 100000; expected fewer levels, samples or centre points"
+    );
+    let replicates = format!("{VALID}replicates: 4000000000\n");
+    assert_eq!(
+        error(&replicates),
+        "jobs/study.yaml:18:13: replicates: expected 1 to 100000 replicates, got 4000000000"
+    );
+    let jobs = format!("{VALID}replicates: 7000\n");
+    assert_eq!(
+        error(&jobs),
+        "jobs/study.yaml:18:13: replicates: the study would run 105000 jobs ((15 design points + 0 test points) × 7000 replicates × 1 round), more than the limit of 100000; expected fewer replicates, points or rounds"
+    );
+    let rounds = format!(
+        "{VALID}replicates: 200\nobjective: {{response: discharge_rate, goal: maximise}}\nrounds: 50\n"
+    );
+    assert_eq!(
+        error(&rounds),
+        "jobs/study.yaml:18:13: replicates: the study would run 150000 jobs ((15 design points + 0 test points) × 200 replicates × 50 rounds), more than the limit of 100000; expected fewer replicates, points or rounds"
+    );
+    let samples = format!(
+        "{VALID}uncertainty:\n  samples: 10000000000000\n  parameters: [{{name: frequency, distribution: normal, mean: 35, std: 2}}]\n"
+    );
+    assert_eq!(
+        error(&samples),
+        "jobs/study.yaml:19:12: uncertainty.samples: expected at most 10000000 samples (10^7), got 10000000000000"
+    );
+}

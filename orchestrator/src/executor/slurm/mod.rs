@@ -202,11 +202,9 @@ impl Executor for SlurmExecutor {
             source,
         };
         let _ = std::fs::remove_file(spec.run_dir.join(EXIT_STATUS_FILE));
-        std::fs::write(
-            spec.run_dir.join(script::BATCH_SCRIPT),
-            script::batch_script(spec, &self.settings),
-        )
-        .map_err(launch_error)?;
+        let text = script::batch_script(spec, &self.settings)
+            .map_err(|e| launch_error(std::io::Error::other(e)))?;
+        std::fs::write(spec.run_dir.join(script::BATCH_SCRIPT), text).map_err(launch_error)?;
         let stdout = self
             .run(
                 "sbatch",

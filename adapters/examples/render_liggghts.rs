@@ -2,7 +2,7 @@
 //! `cargo run -p orch-adapters --example render_liggghts -- DIR [name=value ...]`.
 
 use orch_adapters::hopper::{Hopper, PARAMETERS};
-use orch_adapters::{liggghts, Case, ResolvedParameters, Simulation};
+use orch_adapters::{liggghts, Case, EquipmentOnSolver, ResolvedParameters, Simulation};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args = std::env::args().skip(1);
@@ -16,12 +16,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         parameters.set(name, value.parse()?);
     }
     std::fs::create_dir_all(&dir)?;
-    let simulation = Simulation::new(&Hopper, &liggghts::SOLVER).ok_or("no hopper template")?;
+    let simulation =
+        EquipmentOnSolver::new(&Hopper, &liggghts::SOLVER).ok_or("no hopper template")?;
     let case = Case {
         parameters,
         seed: 1,
+        text: Default::default(),
     };
-    simulation.render(&case, &simulation.default_template(), &dir)?;
+    simulation.render(&case, &dir)?;
     println!("rendered into {}", dir.display());
     Ok(())
 }

@@ -11,6 +11,7 @@
 //! [`EQUIPMENT`], and give each solver that can simulate it a template
 //! ([`crate::DemSolver::templates`]).
 
+use std::borrow::Cow;
 use std::path::Path;
 
 use tera::Context;
@@ -19,14 +20,14 @@ use crate::{Case, Observations, ParameterSpec, RenderError, RunResults};
 
 /// A named scalar response (or a series) an equipment or stage computes, for
 /// validation, `orch params` and reports.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, Eq)]
 pub struct ResponseSpec {
     /// Name used in study files (`responses:`, `objective:`) and in the store.
-    pub name: &'static str,
+    pub name: Cow<'static, str>,
     /// SI unit (`kg/s`, `m`, `-`).
-    pub unit: &'static str,
+    pub unit: Cow<'static, str>,
     /// What it measures.
-    pub description: &'static str,
+    pub description: Cow<'static, str>,
 }
 
 /// The horizontal plane below or beside the equipment where particles are watched:
@@ -98,8 +99,8 @@ pub(crate) const fn response(
     description: &'static str,
 ) -> ResponseSpec {
     ResponseSpec {
-        name,
-        unit,
-        description,
+        name: Cow::Borrowed(name),
+        unit: Cow::Borrowed(unit),
+        description: Cow::Borrowed(description),
     }
 }

@@ -28,6 +28,19 @@ pub enum RenderError {
     },
 }
 
+impl RenderError {
+    /// A Tera error in template `name` (whose text is `text`), with the line it is
+    /// about when it can be found: `template in.chute.tera:12: …`.
+    pub fn template(name: &str, text: &str, error: &tera::Error) -> RenderError {
+        let message = crate::simulation::error_chain(error);
+        let template = match crate::simulation::error_line(text, &message) {
+            Some(line) => format!("{name}:{line}"),
+            None => name.to_string(),
+        };
+        RenderError::Template { template, message }
+    }
+}
+
 /// Why a solver's output could not be read, with the file and line.
 #[derive(Debug, thiserror::Error)]
 pub enum ParseError {
@@ -39,6 +52,22 @@ pub enum ParseError {
         /// The I/O error.
         #[source]
         source: std::io::Error,
+    },
+    /// A file the run should have written is not there.
+    #[error("{} is missing: {what}", path.display())]
+    Missing {
+        /// The file looked for.
+        path: PathBuf,
+        /// What was to be read from it, and what to check.
+        what: String,
+    },
+    /// The file's content, as a whole, cannot give what was asked of it.
+    #[error("{}: {message}", path.display())]
+    Unusable {
+        /// The file.
+        path: PathBuf,
+        /// What was asked and what was found.
+        message: String,
     },
     /// The file's content is not what the format says.
     #[error("{}:{line}: {message}", path.display())]

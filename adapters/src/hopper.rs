@@ -519,13 +519,14 @@ pub(crate) fn case_with(overrides: &[(&str, f64)]) -> Case {
     Case {
         parameters,
         seed: 1,
+        text: Default::default(),
     }
 }
 
 /// The hopper on `solver`, for the solvers' tests.
 #[cfg(test)]
-pub(crate) fn on(solver: &'static crate::DemSolver) -> crate::Simulation {
-    crate::Simulation::new(&Hopper, solver).unwrap()
+pub(crate) fn on(solver: &'static crate::DemSolver) -> crate::EquipmentOnSolver {
+    crate::EquipmentOnSolver::new(&Hopper, solver).unwrap()
 }
 
 /// Renders `case` with `solver`'s default hopper template into `run_dir`; returns the
@@ -536,10 +537,9 @@ pub(crate) fn render_default(
     case: &Case,
     run_dir: &Path,
 ) -> String {
+    use crate::Simulation;
     let simulation = on(solver);
-    simulation
-        .render(case, &simulation.default_template(), run_dir)
-        .unwrap();
+    simulation.render(case, run_dir).unwrap();
     std::fs::read_to_string(run_dir.join(simulation.deck_file())).unwrap()
 }
 
@@ -559,7 +559,7 @@ mod tests {
 
     #[test]
     fn the_response_table_names_every_response_the_hopper_computes() {
-        let table: Vec<&str> = RESPONSES.iter().map(|r| r.name).collect();
+        let table: Vec<&str> = RESPONSES.iter().map(|r| r.name.as_ref()).collect();
         assert_eq!(table, orch_granular::responses::response_names());
     }
 

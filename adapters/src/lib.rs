@@ -7,13 +7,16 @@
 //! - A [`DemSolver`] (LIGGGHTS, YADE, the native kernel) is a descriptor: deck
 //!   extension, one template per equipment, the command ([`CommandSpec`]) and a parser
 //!   of its output into [`Observations`], failing with file and line on bad input.
-//! - A [`Simulation`] pairs the two: render, command, results.
+//! - A [`Simulation`] is what runs for each design point: an [`EquipmentOnSolver`]
+//!   (render, command, results), or a user's own deck ([`custom::CustomDeck`]) with
+//!   the responses its study declares.
 //! - A [`Stage`] (OpenFOAM's stream air, [`openfoam::StreamAir`]) is a job that follows
 //!   another and reads its case and responses ([`Upstream`]).
 //!
 //! The orchestrator knows equipment, solvers and stages only through these types and
 //! the registries [`EQUIPMENT`], [`SOLVERS`] and [`STAGES`].
 
+pub mod custom;
 pub mod dump;
 pub mod equipment;
 mod error;
@@ -38,15 +41,17 @@ pub use equipment::{
 pub(crate) use error::numbered_lines;
 pub use error::{ParseError, RenderError};
 pub use params::{ParameterSpec, ResolvedParameters};
-pub use simulation::{Simulation, TemplateText};
+pub use simulation::{locked_tera, EquipmentOnSolver, Simulation, TemplateText};
 pub use solver::{solver_for, solver_names, DemSolver, SolverTemplate, SOLVERS};
 pub use stage::{stage_for, stage_kinds, Stage, StageError, Upstream, STAGES};
 
 /// One fully resolved simulation: every template parameter has a value.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Default)]
 pub struct Case {
     /// Parameter values in SI units, by name (defaults, fixed values and factors merged).
     pub parameters: ResolvedParameters,
+    /// Text parameters by name (a user's own deck may take words, e.g. a contact model).
+    pub text: BTreeMap<String, String>,
     /// Seed for the solver's random insertion; replicates differ only in their seed.
     pub seed: u64,
 }

@@ -1,22 +1,24 @@
-//! Template parameters: what an adapter's template understands, with SI units.
+//! Template parameters: what an equipment's templates understand, with SI units.
 
+use std::borrow::Cow;
 use std::collections::BTreeMap;
 
-/// One parameter of a solver template.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// One parameter of an equipment's templates. Built-in equipment declare theirs in
+/// static tables; a user's own deck declares its own in the study (hence `Cow`).
+#[derive(Debug, Clone, PartialEq)]
 pub struct ParameterSpec {
     /// Name used in study files and templates.
-    pub name: &'static str,
+    pub name: Cow<'static, str>,
     /// Value used when a study does not set it.
     pub default: f64,
     /// SI unit, for messages and reports (`m`, `Hz`, `kg/m^3`, `-`).
-    pub unit: &'static str,
+    pub unit: Cow<'static, str>,
     /// Smallest physically meaningful value (inclusive).
     pub min: f64,
     /// Largest physically meaningful value (inclusive).
     pub max: f64,
     /// What it is.
-    pub description: &'static str,
+    pub description: Cow<'static, str>,
 }
 
 /// Parameter values by name, after defaults, fixed values and factors are merged.
@@ -55,11 +57,11 @@ pub(crate) const fn spec(
     description: &'static str,
 ) -> ParameterSpec {
     ParameterSpec {
-        name,
+        name: Cow::Borrowed(name),
         default,
-        unit,
+        unit: Cow::Borrowed(unit),
         min,
         max,
-        description,
+        description: Cow::Borrowed(description),
     }
 }

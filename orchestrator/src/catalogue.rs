@@ -5,9 +5,12 @@
 use std::fmt::Write;
 
 use orch_adapters::{
-    DemSolver, Equipment, ParameterSpec, ResponseSpec, Simulation, Stage, EQUIPMENT, SOLVERS,
-    STAGES,
+    DemSolver, Equipment, EquipmentOnSolver, ParameterSpec, ResponseSpec, Simulation, Stage,
+    EQUIPMENT, SOLVERS, STAGES,
 };
+
+/// What a user's own deck is, for the lists.
+const CUSTOM: &str = "your own deck: a `case:` section with Tera templates, side files, the command and the responses to read (docs/custom-decks.md)";
 
 /// One line per equipment, solver and stage: what `orch params` prints without a name.
 pub fn overview() -> String {
@@ -22,6 +25,7 @@ pub fn overview() -> String {
             equipment.description()
         );
     }
+    let _ = writeln!(out, "  {:<10} {CUSTOM}", orch_adapters::custom::EQUIPMENT);
     out.push_str("\nSolvers (`solver:`; `orch template show EQUIPMENT --solver NAME` prints a default deck):\n");
     for solver in SOLVERS {
         let equipment: Vec<&str> = solver.templates.iter().map(|t| t.equipment).collect();
@@ -43,7 +47,7 @@ pub fn overview() -> String {
 
 /// An equipment's parameters, responses and series as aligned text; with a solver, the
 /// template, deck and command too.
-pub fn equipment_text(equipment: &dyn Equipment, solver: Option<&Simulation>) -> String {
+pub fn equipment_text(equipment: &dyn Equipment, solver: Option<&EquipmentOnSolver>) -> String {
     let mut out = format!("{}: {}\n\n", equipment.name(), equipment.description());
     parameters_text(&mut out, equipment.parameters());
     responses_text(&mut out, "Responses", equipment.responses());
@@ -59,7 +63,7 @@ pub fn equipment_text(equipment: &dyn Equipment, solver: Option<&Simulation>) ->
             out,
             "\nOn {}: template {}, rendered as {}, run as `{} {}`, log {}",
             simulation.solver.name,
-            simulation.default_template().name,
+            simulation.template().name,
             simulation.deck_file(),
             command.program,
             command.args.join(" "),
@@ -67,6 +71,19 @@ pub fn equipment_text(equipment: &dyn Equipment, solver: Option<&Simulation>) ->
         );
     }
     out
+}
+
+/// What `orch params custom` says: the parameters and responses are the study's.
+pub fn custom_text() -> String {
+    format!(
+        "{}: {CUSTOM}\n\nIts parameters are the template's variables (declare them under case.parameters for defaults, units and ranges); its responses are declared under case.responses: a column of a table file, a regular expression over a log or a JSON value, reduced by {} over a window. Example: jobs/inclined-plane.yaml.\n",
+        orch_adapters::custom::EQUIPMENT,
+        orch_adapters::custom::Reduction::ALL
+            .iter()
+            .map(|(name, _)| *name)
+            .collect::<Vec<_>>()
+            .join(", ")
+    )
 }
 
 /// A stage's parameters, responses and what it reads upstream, as aligned text.
@@ -146,6 +163,11 @@ pub fn markdown() -> String {
             .collect();
         let _ = writeln!(out, "Default templates: {}.", able.join(", "));
     }
+    let _ = write!(
+        out,
+        "\n## Equipment `{}`\n\nIts parameters and responses are the study's: {CUSTOM}.\n",
+        orch_adapters::custom::EQUIPMENT
+    );
     out.push_str("\n## Solvers\n\n| solver | deck | log | install |\n|---|---|---|---|\n");
     for solver in SOLVERS {
         let _ = writeln!(
@@ -236,10 +258,10 @@ mod tests {
             assert!(text.contains(equipment.name()));
             let table = equipment_text(*equipment, None);
             for p in equipment.parameters() {
-                assert!(table.contains(p.name), "{}", p.name);
+                assert!(table.contains(p.name.as_ref()), "{}", p.name);
             }
             for r in equipment.responses() {
-                assert!(table.contains(r.name), "{}", r.name);
+                assert!(table.contains(r.name.as_ref()), "{}", r.name);
             }
         }
     }

@@ -15,7 +15,7 @@ use crate::project;
 use crate::rounds;
 use crate::status::{self, StudyDetail};
 use crate::store::{JobState, Store, StudyRow, StudyState};
-use crate::study::{ExecutorKind, Study, StudyError, Template};
+use crate::study::{ExecutorKind, Stored, Study, StudyError, Template};
 
 /// Runs design-of-experiments studies of DEM solvers and collects their responses.
 #[derive(Debug, Parser)]
@@ -45,6 +45,10 @@ pub enum Command {
         /// Validate and print the design without writing or running anything.
         #[arg(long)]
         dry_run: bool,
+        /// Submit under this name instead of the file's `name:` (e.g. a changed
+        /// template beside the study submitted before).
+        #[arg(long = "as", value_name = "NAME")]
+        as_name: Option<String>,
     },
     /// Where every study, or every job of one study, stands.
     Status {
@@ -72,6 +76,11 @@ pub enum Command {
     },
     /// Stop a study: running jobs are killed, pending ones will not start.
     Cancel {
+        /// The study name.
+        study: String,
+    },
+    /// Remove a study from the project: its records and its run directories.
+    Delete {
         /// The study name.
         study: String,
     },
@@ -138,7 +147,9 @@ pub async fn run(args: Args) -> anyhow::Result<i32> {
         Command::Submit {
             study_file,
             dry_run,
-        } => submit(&study_file, project_dir, dry_run).await,
+            as_name,
+        } => submit(&study_file, project_dir, dry_run, as_name.as_deref()).await,
+        Command::Delete { study } => delete(project_dir, &study).await,
         Command::Status { study, json } => show_status(project_dir, study.as_deref(), json).await,
         Command::Logs { job, tail } => logs(project_dir, &job, tail).await,
         Command::Fit { study, round } => show_fits(project_dir, &study, round).await,
@@ -167,10 +178,10 @@ pub async fn run(args: Args) -> anyhow::Result<i32> {
 /// comes from, the responses with units, the objective and the rounds.
 fn dry_run_summary(study: &Study) -> String {
     use std::fmt::Write;
-    let equipment = study.simulation.equipment;
+    let simulation = &study.simulation;
     let mut out = format!(
         "parameters of the {} (factor, fixed or default):\n",
-        equipment.name()
+        simulation.equipment_name()
     );
     let mut line = |name: &str, value: String, unit: &str, origin: &str| {
         let _ = writeln!(out, "  {name:<20} {value:>22} {unit:<8} {origin}");
@@ -179,24 +190,31 @@ fn dry_run_summary(study: &Study) -> String {
         let range = format!("[{}, {}]", factor.range.min, factor.range.max);
         line(&factor.name, range, &factor.unit, "factor");
     }
-    for spec in equipment.parameters() {
+    let declared = |name: &str| simulation.parameters().iter().any(|p| p.name == name);
+    for spec in simulation.parameters() {
         if study.factors.iter().any(|f| f.name == spec.name) {
             continue;
         }
-        match study.fixed.get(spec.name) {
-            Some(value) => line(spec.name, value.to_string(), spec.unit, "fixed"),
-            None => line(spec.name, spec.default.to_string(), spec.unit, "default"),
+        match study.fixed.get(spec.name.as_ref()) {
+            Some(value) => line(&spec.name, value.to_string(), &spec.unit, "fixed"),
+            None => line(&spec.name, spec.default.to_string(), &spec.unit, "default"),
         }
+    }
+    for (name, value) in study.fixed.iter().filter(|(n, _)| !declared(n)) {
+        line(name, value.to_string(), "", "fixed");
+    }
+    for (name, text) in &study.fixed_text {
+        line(name, text.clone(), "", "fixed");
     }
     for stage in &study.stages {
         let kind = stage.stage.kind();
         for spec in stage.stage.parameters() {
-            let (value, origin) = match stage.fixed.get(spec.name) {
+            let (value, origin) = match stage.fixed.get(spec.name.as_ref()) {
                 Some(value) => (*value, "fixed"),
                 None => (spec.default, "default"),
             };
             let name = format!("{kind}.{}", spec.name);
-            line(&name, value.to_string(), spec.unit, origin);
+            line(&name, value.to_string(), &spec.unit, origin);
         }
     }
     let responses: Vec<String> = study
@@ -244,6 +262,7 @@ fn params(name: Option<&str>, solver: Option<&str>, markdown: bool) -> anyhow::R
     let text = match name {
         _ if markdown => catalogue::markdown(),
         None => catalogue::overview(),
+        Some(name) if name == orch_adapters::custom::EQUIPMENT => catalogue::custom_text(),
         Some(name) => {
             if let Some(stage) = orch_adapters::stage_for(name) {
                 catalogue::stage_text(stage)
@@ -259,13 +278,13 @@ fn params(name: Option<&str>, solver: Option<&str>, markdown: bool) -> anyhow::R
                     None => None,
                     Some(solver) => {
                         let solver = known_solver(solver)?;
-                        let simulation = orch_adapters::Simulation::new(equipment, solver)
+                        let simulation = orch_adapters::EquipmentOnSolver::new(equipment, solver)
                             .ok_or_else(|| {
-                                input_error(format!(
-                                    "the {} solver has no template for `{name}`",
-                                    solver.name
-                                ))
-                            })?;
+                            input_error(format!(
+                                "the {} solver has no template for `{name}`",
+                                solver.name
+                            ))
+                        })?;
                         Some(simulation)
                     }
                 };
@@ -297,16 +316,21 @@ async fn submit(
     study_file: &Path,
     project_dir: Option<&Path>,
     dry_run: bool,
+    as_name: Option<&str>,
 ) -> anyhow::Result<i32> {
-    let study = Study::load(study_file).map_err(study_error)?;
+    let mut study = Study::load(study_file).map_err(study_error)?;
+    if let Some(name) = as_name {
+        study.rename(name).map_err(input_error)?;
+    }
     if dry_run {
         outln!(
-            "{}: {} design points × {} replicates = {} jobs: {:?}",
+            "{}: {} design points × {} replicates = {} jobs: {} on {}",
             study.name,
             study.points.len(),
             study.replicates,
             study.job_count(),
-            study.simulation
+            study.simulation.equipment_name(),
+            study.simulation.solver_name()
         )?;
         for stage in &study.stages {
             outln!(
@@ -328,12 +352,12 @@ async fn submit(
         out!("{}", dry_run_summary(&study))?;
         return Ok(exit_codes::SUCCESS);
     }
-    let solver = study.simulation.solver;
+    let solver = study.simulation.solver_name();
     let program = study.simulation.command().program;
     if !program_exists(&program) {
         return Err(input_error(format!(
-            "the {} solver `{program}` is not installed (not found on PATH); install it with `{}` and submit again; nothing was written",
-            solver.name, solver.install_hint
+            "the {solver} solver `{program}` is not installed (not found on PATH); install it with `{}` and submit again; nothing was written",
+            study.simulation.install_hint()
         )));
     }
     for stage in &study.stages {
@@ -380,10 +404,11 @@ async fn submit(
         }
         Some(existing) => {
             return Err(input_error(format!(
-                "a different study named `{}` already exists in {} (submitted from {}); give this one another `name:` or use another --project-dir",
-                study.name,
+                "a different study named `{name}` already exists in {} (submitted from {}; this file, its template or its files differ); submit this one under another name with `orch submit --as NAME {}`, or remove the old one with `orch delete {name}`; nothing was written",
                 store.path().display(),
-                existing.file_path
+                existing.file_path,
+                study_file.display(),
+                name = study.name,
             )))
         }
         None => {
@@ -395,7 +420,7 @@ async fn submit(
                 study.job_count(),
                 study.points.len(),
                 study.replicates,
-                solver.name,
+                solver,
                 study.executor.max_parallel,
                 store.path().display()
             );
@@ -519,7 +544,8 @@ async fn show_status(
                 .parent()
                 .unwrap_or(Path::new("."))
                 .to_path_buf();
-            let responses = stored_study(&row)
+            let responses = stored_study(&store, &row)
+                .await?
                 .map(|s| s.shown_responses())
                 .unwrap_or_default();
             let detail = StudyDetail::load(&store, row).await?;
@@ -533,13 +559,44 @@ async fn show_status(
     Ok(exit_codes::SUCCESS)
 }
 
-/// The study as it was submitted: its stored file text and template, validated again.
-fn stored_study(row: &StudyRow) -> Result<Study, StudyError> {
-    let template = Template {
-        name: row.template_name.clone(),
-        text: row.template_text.clone(),
+/// The study as it was submitted: its stored file text, template and files, validated
+/// again.
+async fn stored_study(store: &Store, row: &StudyRow) -> anyhow::Result<Result<Study, StudyError>> {
+    let stored = Stored {
+        template: Some(Template {
+            name: row.template_name.clone(),
+            text: row.template_text.clone(),
+        }),
+        inputs: store.study_inputs(row.id).await?,
     };
-    Study::from_text(Path::new(&row.file_path), &row.file_text, Some(template))
+    let study = Study::from_text(Path::new(&row.file_path), &row.file_text, Some(stored));
+    // Submitted with `--as`, the study's name is the stored one, not the file's.
+    Ok(study.map(|mut study| {
+        study.name = row.name.clone();
+        study
+    }))
+}
+
+/// `orch delete`: the study's records and run directories, unless it is running.
+async fn delete(project_dir: Option<&Path>, name: &str) -> anyhow::Result<i32> {
+    let (store, row) = find(project_dir, name).await?;
+    store.delete_study(&row, process::is_alive).await?;
+    let runs = store
+        .path()
+        .parent()
+        .unwrap_or(Path::new("."))
+        .join(project::RUNS_DIR_NAME)
+        .join(&row.name);
+    if runs.exists() {
+        std::fs::remove_dir_all(&runs).with_context(|| {
+            format!(
+                "the study's records are deleted, but not its runs in {}",
+                runs.display()
+            )
+        })?;
+    }
+    errln!("orch: deleted study `{name}` and its runs");
+    Ok(exit_codes::SUCCESS)
 }
 
 async fn logs(project_dir: Option<&Path>, reference: &str, tail: usize) -> anyhow::Result<i32> {
@@ -656,7 +713,8 @@ async fn cancel(project_dir: Option<&Path>, name: &str) -> anyhow::Result<i32> {
         .iter()
         .filter_map(|job| job.executor_handle.as_deref())
         .collect();
-    let slurm = stored_study(&row)
+    let slurm = stored_study(&store, &row)
+        .await?
         .ok()
         .and_then(|study| study.executor.slurm);
     let stopped = match slurm {
@@ -722,7 +780,8 @@ async fn reopen(store: &Store, row: &StudyRow, retry_failed: bool) -> anyhow::Re
 
 async fn resume(project_dir: Option<&Path>, name: &str, retry_failed: bool) -> anyhow::Result<i32> {
     let (store, row) = find(project_dir, name).await?;
-    let study = stored_study(&row)
+    let study = stored_study(&store, &row)
+        .await?
         .map_err(|e| input_error(format!("the stored study file no longer validates: {e}")))?;
     claim_and_reopen(&store, &row, retry_failed).await?;
     if store

@@ -292,9 +292,9 @@ impl<E: Executor> Driver<'_, E> {
     /// Renders a job into its run directory and returns its command, or why not.
     async fn render(&self, job: &JobRow, run_dir: &Path) -> Result<CommandSpec, String> {
         let Some(kind) = job.stage_kind() else {
-            let simulation = self.study.simulation;
+            let simulation = &self.study.simulation;
             simulation
-                .render(&self.case(job), &self.study.template, run_dir)
+                .render(&self.case(job), run_dir)
                 .map_err(|e| format!("cannot render the case: {e}"))?;
             return Ok(simulation.command());
         };
@@ -475,14 +475,14 @@ impl<E: Executor> Driver<'_, E> {
     fn log_file(&self, job: &JobRow) -> String {
         match job.stage_kind().and_then(|kind| self.study.stage(kind)) {
             Some(stage) => stage.stage.log_file().to_string(),
-            None => self.study.simulation.solver.log_file.to_string(),
+            None => self.study.simulation.command().log_file,
         }
     }
 
     /// Parses a successful run and stores its results, or fails the job with why not.
     async fn collect(&mut self, job: &JobRow, run_dir: &Path) -> Result<(), DriverError> {
         let case = self.case(job);
-        let simulation = self.study.simulation;
+        let simulation = self.study.simulation.clone();
         let stage = match job.stage_kind() {
             Some(kind) => match self.stage_of(kind) {
                 Ok(config) => Some(config.stage),

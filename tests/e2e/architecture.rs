@@ -94,7 +94,7 @@ fn production_sources(dir: &Path) -> Vec<(PathBuf, String)> {
 fn no_hopper_response_name_is_spelled_outside_the_hopper_module() {
     let names: Vec<&str> = orch_adapters::hopper::RESPONSES
         .iter()
-        .map(|r| r.name)
+        .map(|r| r.name.as_ref())
         .collect();
     let allowed = [
         root().join("adapters/src/hopper.rs"),

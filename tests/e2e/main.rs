@@ -8,6 +8,7 @@
 mod architecture;
 mod concurrency;
 mod crash_resume;
+mod custom;
 mod faults;
 mod native;
 mod openfoam;

@@ -2,7 +2,7 @@ use std::path::Path;
 
 use super::*;
 use crate::hopper::{case_with, observe, on, render_default};
-use crate::TemplateText;
+use crate::{Simulation, TemplateText};
 
 /// Renders `case` with the default template and returns the deck.
 fn check(case: &Case) -> String {
@@ -49,10 +49,11 @@ fn template_errors_name_the_template() {
         text: "run {{ no_such_value }}".to_string(),
     };
     let error = on(&SOLVER)
-        .render(&case_with(&[]), &template, dir.path())
+        .with_template(template)
+        .render(&case_with(&[]), dir.path())
         .unwrap_err()
         .to_string();
-    assert!(error.starts_with("template my.in.tera: "), "{error}");
+    assert!(error.starts_with("template my.in.tera:1: "), "{error}");
     assert!(error.contains("no_such_value"), "{error}");
 }
 

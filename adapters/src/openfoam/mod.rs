@@ -20,13 +20,13 @@ mod post;
 use std::path::Path;
 
 use orch_granular::air::{drag_rate_per_s, mean_fall_speed, StreamFraction};
-use tera::{Context, Tera};
+use tera::Context;
 
 pub use post::{read_probes, read_surface_field_value, read_time_series_dirs};
 
 use crate::equipment::response;
 use crate::params::spec;
-use crate::simulation::error_chain;
+use crate::simulation::{render_template, write};
 use crate::{
     Case, CommandSpec, ParameterSpec, ParseError, RenderError, ResponseSpec, RunResults, Series,
     Stage, StageError, Upstream,
@@ -360,25 +360,8 @@ pub fn render(case: &Case, stream: &StreamInputs, run_dir: &Path) -> Result<(), 
     let context = context(case, stream);
     for (file, template) in FILES {
         let name = format!("{TEMPLATE_DIR}/{file}");
-        let mut tera = Tera::default();
-        let text = tera
-            .add_raw_template(&name, template)
-            .and_then(|_| tera.render(&name, &context))
-            .map_err(|e| RenderError::Template {
-                template: name.clone(),
-                message: error_chain(&e),
-            })?;
-        let path = run_dir.join(file);
-        if let Some(parent) = path.parent() {
-            std::fs::create_dir_all(parent).map_err(|source| RenderError::Write {
-                path: parent.to_path_buf(),
-                source,
-            })?;
-        }
-        std::fs::write(&path, text).map_err(|source| RenderError::Write {
-            path: path.clone(),
-            source,
-        })?;
+        let text = render_template(&name, template, &context)?;
+        write(run_dir, file, &text)?;
     }
     Ok(())
 }

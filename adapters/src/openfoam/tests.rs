@@ -8,6 +8,7 @@ fn cfd_case() -> Case {
     Case {
         parameters: ResolvedParameters::defaults(PARAMETERS),
         seed: 1,
+        text: Default::default(),
     }
 }
 

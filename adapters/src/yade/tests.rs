@@ -3,6 +3,7 @@ use std::path::Path;
 
 use super::*;
 use crate::hopper::{self, case_with, observe, on, render_default};
+use crate::Simulation;
 
 /// Renders `case` with the default template and returns the script's text.
 fn render(case: &Case) -> String {

@@ -185,6 +185,23 @@ impl Store {
 
     /// Records a validated study with its factors, points and jobs, all at once.
     /// Jobs are named `p<point>r<replicate>` and run in `<runs_root>/<study>/<job>`.
+    /// The files stored with study `study_id` at submission, by path as written.
+    pub async fn study_inputs(
+        &self,
+        study_id: i64,
+    ) -> Result<BTreeMap<String, Vec<u8>>, StoreError> {
+        let rows = sqlx::query("SELECT path, content FROM study_inputs WHERE study_id = ?")
+            .bind(study_id)
+            .fetch_all(&self.pool)
+            .await
+            .map_err(query_error("read the study's files"))?;
+        Ok(rows
+            .into_iter()
+            .map(|row| (row.get::<String, _>(0), row.get::<Vec<u8>, _>(1)))
+            .collect())
+    }
+
+    /// Records a validated study with its factors, points and jobs, all at once.
     pub async fn insert_study(
         &self,
         study: &Study,
@@ -199,18 +216,27 @@ impl Store {
              VALUES (?, ?, ?, ?, ?, ?, ?, 'active', ?, ?) RETURNING id",
         )
         .bind(&study.name)
-        .bind(study.simulation.solver.name)
+        .bind(study.simulation.solver_name())
         .bind(file_path.display().to_string())
         .bind(&study.file_text)
         .bind(&study.file_sha256)
-        .bind(&study.template.name)
-        .bind(&study.template.text)
+        .bind(&study.template().name)
+        .bind(&study.template().text)
         .bind(now)
         .bind(now)
         .fetch_one(&mut *tx)
         .await
         .map_err(query_error("record the study"))?
         .get(0);
+        for (path, content) in &study.inputs {
+            sqlx::query("INSERT INTO study_inputs (study_id, path, content) VALUES (?, ?, ?)")
+                .bind(study_id)
+                .bind(path)
+                .bind(content)
+                .execute(&mut *tx)
+                .await
+                .map_err(query_error("record the study's files"))?;
+        }
         for (idx, factor) in study.factors.iter().enumerate() {
             sqlx::query("INSERT INTO factors (study_id, idx, name, min, max, unit) VALUES (?, ?, ?, ?, ?, ?)")
                 .bind(study_id)
@@ -325,6 +351,37 @@ impl Store {
             .await
             .map_err(query_error("claim the study"))?;
         tx.commit().await.map_err(query_error("claim the study"))
+    }
+
+    /// Deletes study `study` with everything recorded of it (points, jobs, responses,
+    /// rounds, files), unless a live orch process drives it. Its run directories are
+    /// the caller's to remove.
+    pub async fn delete_study(
+        &self,
+        study: &StudyRow,
+        is_alive: impl Fn(i64, i64) -> bool,
+    ) -> Result<(), StoreError> {
+        let mut tx = self.begin_write().await?;
+        let holder: (Option<i64>, Option<i64>) =
+            sqlx::query_as("SELECT driver_pid, driver_started FROM studies WHERE id = ?")
+                .bind(study.id)
+                .fetch_one(&mut *tx)
+                .await
+                .map_err(query_error("read the study's driver"))?;
+        if let (Some(other), Some(other_started)) = holder {
+            if is_alive(other, other_started) {
+                return Err(StoreError::Busy {
+                    study: study.name.clone(),
+                    pid: other,
+                });
+            }
+        }
+        sqlx::query("DELETE FROM studies WHERE id = ?")
+            .bind(study.id)
+            .execute(&mut *tx)
+            .await
+            .map_err(query_error("delete the study"))?;
+        tx.commit().await.map_err(query_error("delete the study"))
     }
 
     /// Releases the study's driver claim and sets its final state.

@@ -22,8 +22,10 @@ pub struct StudyFile {
     /// What is simulated (`hopper`, the default).
     #[serde(default)]
     pub equipment: Option<String>,
-    /// Solver name (`liggghts`).
-    pub solver: String,
+    /// Solver name (`liggghts`); not with `equipment: custom`, whose `case:` names
+    /// its command.
+    #[serde(default)]
+    pub solver: Option<String>,
     /// A Tera template of the user's, relative to the study file; default per solver.
     #[serde(default)]
     pub template: Option<String>,
@@ -32,9 +34,10 @@ pub struct StudyFile {
     pub executor: ExecutorFile,
     /// Design variables.
     pub factors: Vec<FactorFile>,
-    /// Template parameters held constant, by name, SI units.
+    /// Template parameters held constant, by name, SI units; a user's own deck may
+    /// also take text.
     #[serde(default)]
-    pub fixed: BTreeMap<String, f64>,
+    pub fixed: BTreeMap<String, FixedValue>,
     /// The design of experiments.
     pub design: DesignFile,
     /// Runs per design point, each with its own seed.
@@ -68,6 +71,119 @@ pub struct StudyFile {
     /// stream drags.
     #[serde(default)]
     pub cfd: Option<StageFile>,
+    /// A user's own deck (`equipment: custom`): templates, files, command, responses.
+    #[serde(default)]
+    pub case: Option<CaseFile>,
+}
+
+/// A fixed value: a number (SI units) or, for a user's own deck, a word or text.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(untagged)]
+pub enum FixedValue {
+    /// A number.
+    Number(f64),
+    /// Text.
+    Text(String),
+}
+
+/// The `case:` section of `equipment: custom`: the user's own deck.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CaseFile {
+    /// Tera templates, relative to the study file, each rendered into every run under
+    /// its file name without `.tera`.
+    pub templates: Vec<String>,
+    /// Files copied unchanged into every run under their file name (meshes, includes,
+    /// restart files).
+    #[serde(default)]
+    pub files: Vec<String>,
+    /// The command, one word per element (`[liggghts, -in, in.chute]`); a word may use
+    /// `{{ cores }}`.
+    pub command: Vec<String>,
+    /// Cores the command uses (default 1).
+    #[serde(default)]
+    pub cores: Option<usize>,
+    /// The program's log in the run directory (default: its standard output).
+    #[serde(default)]
+    pub log: Option<String>,
+    /// Declared parameters: default, unit, range, description.
+    #[serde(default)]
+    pub parameters: BTreeMap<String, DeclaredParameterFile>,
+    /// The responses read from each finished run.
+    pub responses: Vec<DeclaredResponseFile>,
+}
+
+/// A declared parameter of a user's own deck.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DeclaredParameterFile {
+    /// Value when a study neither fixes nor varies it.
+    pub default: f64,
+    /// Unit.
+    #[serde(default)]
+    pub unit: Option<String>,
+    /// Smallest allowed value.
+    #[serde(default)]
+    pub min: Option<f64>,
+    /// Largest allowed value.
+    #[serde(default)]
+    pub max: Option<f64>,
+    /// What it is.
+    #[serde(default)]
+    pub description: Option<String>,
+}
+
+/// A column of a table file, by header name or 1-based number.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(untagged)]
+pub enum ColumnFile {
+    /// Its number, 1 = the first column.
+    Number(usize),
+    /// Its name in the header.
+    Name(String),
+}
+
+/// A declared response: one source (`table:`, `regex:` or `json:`), a reduction and a
+/// window.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DeclaredResponseFile {
+    /// Its name in `responses:`, `objective:` and the store.
+    pub name: String,
+    /// Its unit.
+    #[serde(default)]
+    pub unit: Option<String>,
+    /// A table file (whitespace or CSV; `#` comments; header names columns).
+    #[serde(default)]
+    pub table: Option<String>,
+    /// The table's value column.
+    #[serde(default)]
+    pub column: Option<ColumnFile>,
+    /// The table's time column (default 1).
+    #[serde(default)]
+    pub time_column: Option<ColumnFile>,
+    /// A regular expression whose first group is the number, over `file:` (default:
+    /// the log).
+    #[serde(default)]
+    pub regex: Option<String>,
+    /// A JSON file, with `key:`.
+    #[serde(default)]
+    pub json: Option<String>,
+    /// The file a `regex:` reads.
+    #[serde(default)]
+    pub file: Option<String>,
+    /// The dotted key path in a `json:` file.
+    #[serde(default)]
+    pub key: Option<String>,
+    /// last (default), mean, min, max, slope, integral or std.
+    #[serde(default)]
+    pub reduce: Option<String>,
+    /// Window start, in the time column's units.
+    #[serde(default)]
+    pub from: Option<f64>,
+    /// Window end.
+    #[serde(default)]
+    pub to: Option<f64>,
 }
 
 /// A stage's section: its parameters held constant.

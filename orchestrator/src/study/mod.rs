@@ -3,16 +3,18 @@
 //! Parsing and validation happen before anything is written. Every error names the
 //! file, the line and column, the field and what was expected ([`StudyError`]).
 
+mod custom;
 mod file;
 mod locate;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::time::Duration;
 
 use orch_adapters::{
     equipment_for, equipment_names, solver_for, solver_names, stage_for, stage_kinds, Case,
-    ParameterSpec, ResolvedParameters, Simulation, Stage, DEFAULT_EQUIPMENT,
+    EquipmentOnSolver, ParameterSpec, ResolvedParameters, Simulation, Stage, DEFAULT_EQUIPMENT,
 };
 use orch_metamodel::{
     BasisKind, CentralCompositeAlpha, Design, DesignKind, Distribution, FactorRange, Goal, MAX_RUNS,
@@ -20,7 +22,8 @@ use orch_metamodel::{
 use sha2::{Digest, Sha256};
 
 use file::{
-    AlphaFile, BasisFile, DesignFile, DesignType, DistributionFile, ExecutorFile, GoalFile,
+    AlphaFile, BasisFile, DesignFile, DesignType, DistributionFile, ExecutorFile, FixedValue,
+    GoalFile,
 };
 pub use file::{ExecutorKind, StudyFile};
 
@@ -153,16 +156,17 @@ pub struct UncertaintyConfig {
 pub struct Study {
     /// Name.
     pub name: String,
-    /// The equipment and the solver that simulates it.
-    pub simulation: Simulation,
-    /// The template to render.
-    pub template: Template,
+    /// What runs for each design point: an equipment on a solver, or the user's own
+    /// deck.
+    pub simulation: Arc<dyn Simulation>,
     /// Executor settings.
     pub executor: ExecutorConfig,
     /// Design variables in order.
     pub factors: Vec<Factor>,
     /// Template parameters held constant.
     pub fixed: BTreeMap<String, f64>,
+    /// Text parameters held constant (a user's own deck).
+    pub fixed_text: BTreeMap<String, String>,
     /// Design points.
     pub points: Vec<DesignPoint>,
     /// Runs per point.
@@ -185,8 +189,22 @@ pub struct Study {
     pub stages: Vec<StageConfig>,
     /// The file's text, kept in the store.
     pub file_text: String,
-    /// SHA-256 of the file's text, hex.
+    /// Files the study names relative to itself (a user's deck's templates and side
+    /// files), as `(path as written, bytes)`, kept in the store.
+    pub inputs: Vec<(String, Vec<u8>)>,
+    /// SHA-256 of the file's text and of its template and inputs, hex: a study
+    /// submitted again under its name must be the same in all of them.
     pub file_sha256: String,
+}
+
+/// What the store kept of a study at submission, used instead of the files on disk
+/// when it is validated again (status, resume).
+#[derive(Debug, Clone, Default)]
+pub struct Stored {
+    /// The template (a built-in equipment's; see [`Study::template`]).
+    pub template: Option<Template>,
+    /// The inputs by path as written in the study.
+    pub inputs: BTreeMap<String, Vec<u8>>,
 }
 
 /// A stage run after each design job of the study, fed by that job's case and
@@ -218,6 +236,7 @@ impl StageConfig {
         Case {
             parameters,
             seed: 0,
+            text: Default::default(),
         }
     }
 }
@@ -244,20 +263,35 @@ impl Study {
         Study::from_text(path, &text, None)
     }
 
-    /// Validates a study from its text. `path` names the file in errors and anchors a
-    /// relative `template:`; `stored_template` replaces reading the template from disk
-    /// (on resume, the template stored at submission is used).
-    pub fn from_text(
-        path: &Path,
-        text: &str,
-        stored_template: Option<Template>,
-    ) -> Result<Study, StudyError> {
+    /// Validates a study from its text. `path` names the file in errors and anchors
+    /// the files it names (`template:`, a custom `case:`'s templates and files);
+    /// `stored` replaces reading them from disk (on resume, what was stored at
+    /// submission is used).
+    pub fn from_text(path: &Path, text: &str, stored: Option<Stored>) -> Result<Study, StudyError> {
         let checker = Checker {
             path,
             locations: locate::value_locations(text),
+            stored,
         };
         let file = checker.parse(text)?;
-        checker.validate(file, text, stored_template)
+        checker.validate(file, text)
+    }
+
+    /// Gives the study another name (`orch submit --as`); the error says what a name
+    /// may hold.
+    pub fn rename(&mut self, name: &str) -> Result<(), String> {
+        if !is_study_name(name) {
+            return Err(format!(
+                "--as {name}: expected letters, digits, `-` or `_` (it names folders)"
+            ));
+        }
+        self.name = name.to_string();
+        Ok(())
+    }
+
+    /// The template the store keeps with the study.
+    pub fn template(&self) -> Template {
+        self.simulation.template()
     }
 
     /// Number of jobs of the first round: (design + test points) × replicates.
@@ -302,43 +336,45 @@ impl Study {
     }
 
     /// Every response the study's runs can produce: the equipment's, then each stage's.
-    pub fn known_responses(&self) -> Vec<&'static str> {
-        known_responses(&self.simulation, &self.stages)
+    pub fn known_responses(&self) -> Vec<&str> {
+        known_responses(self.simulation.as_ref(), &self.stages)
     }
 
     /// The responses shown and fitted: the study's list, or the equipment's headline
     /// responses when it names none.
     pub fn shown_responses(&self) -> Vec<String> {
         if self.responses.is_empty() {
-            let headline = self.simulation.equipment.headline_responses();
-            headline.iter().map(|r| r.to_string()).collect()
+            self.simulation.headline_responses()
         } else {
             self.responses.clone()
         }
     }
 
     /// The unit of response `name`, when the equipment or a stage declares it.
-    pub fn response_unit(&self, name: &str) -> Option<&'static str> {
+    pub fn response_unit(&self, name: &str) -> Option<&str> {
         let stages = self.stages.iter().flat_map(|s| s.stage.responses());
         self.simulation
-            .equipment
             .responses()
             .iter()
             .chain(stages)
             .find(|r| r.name == name)
-            .map(|r| r.unit)
+            .map(|r| r.unit.as_ref())
     }
 
     /// The fully resolved case at natural factor values `natural` (in factor order).
     pub fn case_at(&self, natural: &[f64], seed: u64) -> Case {
-        let mut parameters = ResolvedParameters::defaults(self.simulation.equipment.parameters());
+        let mut parameters = ResolvedParameters::defaults(self.simulation.parameters());
         for (name, value) in &self.fixed {
             parameters.set(name, *value);
         }
         for (factor, value) in self.factors.iter().zip(natural) {
             parameters.set(&factor.name, *value);
         }
-        Case { parameters, seed }
+        Case {
+            parameters,
+            text: self.fixed_text.clone(),
+            seed,
+        }
     }
 
     /// Seed of the job for `point_index` and `replicate`, derived from the base seed.
@@ -350,21 +386,56 @@ impl Study {
     }
 }
 
-/// Every response of `simulation`'s equipment and of `stages`.
-fn known_responses(simulation: &Simulation, stages: &[StageConfig]) -> Vec<&'static str> {
+/// Every response of `simulation` and of `stages`.
+fn known_responses<'a>(simulation: &'a dyn Simulation, stages: &[StageConfig]) -> Vec<&'a str> {
     let stage_responses = stages.iter().flat_map(|s| s.stage.responses());
     simulation
-        .equipment
         .responses()
         .iter()
         .chain(stage_responses)
-        .map(|r| r.name)
+        .map(|r| r.name.as_ref())
         .collect()
+}
+
+/// True for a name that can name folders: letters, digits, `-` and `_`.
+fn is_study_name(name: &str) -> bool {
+    !name.is_empty()
+        && name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_')
+}
+
+/// SHA-256 of the study file's text, plus, when the study has them, its own template
+/// and inputs: the same name must mean the same study in all of them.
+fn study_hash(
+    text: &str,
+    simulation: &Arc<dyn Simulation>,
+    inputs: &[(String, Vec<u8>)],
+) -> String {
+    let template = simulation.template();
+    let own_template = simulation.accepts_undeclared_parameters() && !template.text.is_empty();
+    if inputs.is_empty() && !own_template {
+        return format!("{:x}", Sha256::digest(text.as_bytes()));
+    }
+    let mut hasher = Sha256::new();
+    hasher.update(text.as_bytes());
+    if own_template {
+        hasher.update(b"\0template\0");
+        hasher.update(template.text.as_bytes());
+    }
+    for (path, bytes) in inputs {
+        hasher.update(b"\0input\0");
+        hasher.update(path.as_bytes());
+        hasher.update(b"\0");
+        hasher.update(Sha256::digest(bytes));
+    }
+    format!("{:x}", hasher.finalize())
 }
 
 struct Checker<'a> {
     path: &'a Path,
     locations: std::collections::HashMap<String, Location>,
+    stored: Option<Stored>,
 }
 
 impl Checker<'_> {
@@ -374,7 +445,7 @@ impl Checker<'_> {
     fn stages(
         &self,
         file: &StudyFile,
-        simulation: &Simulation,
+        simulation: &dyn Simulation,
     ) -> Result<Vec<StageConfig>, StudyError> {
         let mut sections: Vec<(String, &file::StageFile)> = file
             .stages
@@ -408,10 +479,9 @@ impl Checker<'_> {
                     format!("is not a parameter of the {kind} stage")
                 })?;
             }
-            let equipment = simulation.equipment;
             let has_parameter =
-                |name: &&str| equipment.parameters().iter().any(|p| p.name == *name);
-            let has_response = |name: &&str| equipment.responses().iter().any(|r| r.name == *name);
+                |name: &&str| simulation.parameters().iter().any(|p| p.name == *name);
+            let has_response = |name: &&str| simulation.responses().iter().any(|r| r.name == *name);
             let missing = stage
                 .upstream_responses()
                 .iter()
@@ -429,7 +499,7 @@ impl Checker<'_> {
                     &at,
                     format!(
                         "the {kind} stage reads the {missing} of its upstream job, which the {} equipment does not have",
-                        equipment.name()
+                        simulation.equipment_name()
                     ),
                 ));
             }
@@ -452,7 +522,7 @@ impl Checker<'_> {
         unknown: impl Fn() -> String,
     ) -> Result<(), StudyError> {
         let Some(spec) = specs.iter().find(|s| s.name == name) else {
-            let names: Vec<&str> = specs.iter().map(|s| s.name).collect();
+            let names: Vec<&str> = specs.iter().map(|s| s.name.as_ref()).collect();
             return Err(self.error(
                 field,
                 format!(
@@ -527,18 +597,8 @@ impl Checker<'_> {
         })
     }
 
-    fn validate(
-        &self,
-        file: StudyFile,
-        text: &str,
-        stored_template: Option<Template>,
-    ) -> Result<Study, StudyError> {
-        if file.name.is_empty()
-            || !file
-                .name
-                .chars()
-                .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_')
-        {
+    fn validate(&self, file: StudyFile, text: &str) -> Result<Study, StudyError> {
+        if !is_study_name(&file.name) {
             return Err(self.error(
                 "name",
                 format!(
@@ -547,63 +607,22 @@ impl Checker<'_> {
                 ),
             ));
         }
-        let equipment_name = file.equipment.as_deref().unwrap_or(DEFAULT_EQUIPMENT);
-        let equipment = equipment_for(equipment_name).ok_or_else(|| {
-            self.error(
-                "equipment",
-                format!(
-                    "unknown equipment `{equipment_name}`; expected one of: {}",
-                    equipment_names().join(", ")
-                ),
-            )
-        })?;
-        let solver = solver_for(&file.solver).ok_or_else(|| {
-            self.error(
-                "solver",
-                format!(
-                    "unknown solver `{}`; expected one of: {}",
-                    file.solver,
-                    solver_names().join(", ")
-                ),
-            )
-        })?;
-        let simulation = Simulation::new(equipment, solver).ok_or_else(|| {
-            let able: Vec<&str> = orch_adapters::SOLVERS
-                .iter()
-                .filter(|s| s.template_for(equipment_name).is_some())
-                .map(|s| s.name)
-                .collect();
-            self.error(
-                "solver",
-                format!(
-                    "the {} solver has no template for the {equipment_name} equipment; expected one of: {}",
-                    solver.name,
-                    able.join(", ")
-                ),
-            )
-        })?;
-        let template = match (stored_template, &file.template) {
-            (Some(stored), _) => stored,
-            (None, None) => simulation.default_template(),
-            (None, Some(relative)) => {
-                let base = self.path.parent().unwrap_or(Path::new("."));
-                let resolved = base.join(relative);
-                let text = std::fs::read_to_string(&resolved).map_err(|e| {
-                    self.error(
-                        "template",
-                        format!("cannot read the template {}: {e}; expected a Tera template file, relative to the study file", resolved.display()),
-                    )
-                })?;
-                Template {
-                    name: resolved.display().to_string(),
-                    text,
-                }
-            }
-        };
-        let custom_template = file.template.is_some();
-        let specs = equipment.parameters();
+        let mut inputs = Vec::new();
+        let (simulation, deck): (Arc<dyn Simulation>, _) =
+            if file.equipment.as_deref() == Some(custom::EQUIPMENT) {
+                let deck = Arc::new(self.custom_deck(&file, &mut inputs)?);
+                (deck.clone(), Some(deck))
+            } else {
+                (Arc::new(self.builtin_simulation(&file)?), None)
+            };
+        let specs = simulation.parameters();
         let spec_of = |name: &str| specs.iter().find(|s| s.name == name);
-        let known_names = || specs.iter().map(|s| s.name).collect::<Vec<_>>().join(", ");
+        let known_names = || {
+            let names: Vec<&str> = specs.iter().map(|s| s.name.as_ref()).collect();
+            names.join(", ")
+        };
+        let custom_template = simulation.accepts_undeclared_parameters();
+        let equipment_name = simulation.equipment_name();
 
         if file.factors.is_empty() {
             return Err(self.error("factors", "expected at least one factor"));
@@ -650,7 +669,7 @@ impl Checker<'_> {
                         ));
                     }
                     if let Some(unit) = &factor.unit {
-                        if unit != spec.unit {
+                        if *unit != spec.unit {
                             return Err(self.error(
                                 &at("unit"),
                                 format!("`{}` is in {} (SI), got `{unit}`", factor.name, spec.unit),
@@ -666,7 +685,7 @@ impl Checker<'_> {
                         format!(
                             "`{}` is not a parameter of the {} equipment; expected one of: {}",
                             factor.name,
-                            equipment.name(),
+                            equipment_name,
                             known_names()
                         ),
                     ))
@@ -681,10 +700,25 @@ impl Checker<'_> {
                 unit,
             });
         }
+        let mut fixed = BTreeMap::new();
+        let mut fixed_text = BTreeMap::new();
         for (name, value) in &file.fixed {
             let at = format!("fixed.{name}");
+            let value = match value {
+                FixedValue::Number(value) => *value,
+                FixedValue::Text(text) if deck.is_some() => {
+                    fixed_text.insert(name.clone(), text.clone());
+                    continue;
+                }
+                FixedValue::Text(text) => {
+                    return Err(self.error(
+                        &at,
+                        format!("expected a number (SI units), got `{text}`; text values are for a custom case"),
+                    ))
+                }
+            };
             match spec_of(name) {
-                Some(spec) if !(spec.min..=spec.max).contains(value) => {
+                Some(spec) if !(spec.min..=spec.max).contains(&value) => {
                     return Err(self.error(
                         &at,
                         format!(
@@ -698,13 +732,14 @@ impl Checker<'_> {
                         &at,
                         format!(
                             "`{name}` is not a parameter of the {} equipment; expected one of: {}",
-                            equipment.name(),
+                            equipment_name,
                             known_names()
                         ),
                     ))
                 }
                 _ => {}
             }
+            fixed.insert(name.clone(), value);
         }
         if file.replicates == 0 || file.replicates as usize > MAX_RUNS {
             return Err(self.error(
@@ -730,8 +765,8 @@ impl Checker<'_> {
                 coded,
             })
             .collect();
-        let stages = self.stages(&file, &simulation)?;
-        let known_responses = known_responses(&simulation, &stages);
+        let stages = self.stages(&file, simulation.as_ref())?;
+        let known_responses = known_responses(simulation.as_ref(), &stages);
         for (i, response) in file.responses.iter().enumerate() {
             if !known_responses.contains(&response.as_str()) {
                 return Err(self.error(
@@ -743,7 +778,7 @@ impl Checker<'_> {
                 ));
             }
         }
-        let executor = self.executor(&file.executor, &simulation)?;
+        let executor = self.executor(&file.executor, simulation.as_ref())?;
         let objective = match &file.objective {
             None => None,
             Some(objective) => {
@@ -854,13 +889,14 @@ impl Checker<'_> {
             stages.len(),
             rounds,
         )?;
+        let file_sha256 = study_hash(text, &simulation, &inputs);
         let study = Study {
             name: file.name,
             simulation,
-            template,
             executor,
             factors,
-            fixed: file.fixed,
+            fixed,
+            fixed_text,
             points,
             replicates: file.replicates,
             seed: file.seed,
@@ -872,26 +908,46 @@ impl Checker<'_> {
             uncertainty,
             stages,
             file_text: text.to_string(),
-            file_sha256: format!("{:x}", Sha256::digest(text.as_bytes())),
+            inputs,
+            file_sha256,
         };
-        // Every point must describe something the solver can build.
+        // Every point must describe something the solver can build; a template of the
+        // user's must render at every point, and use every factor.
+        let user_templates = study.simulation.accepts_undeclared_parameters();
         for (index, point) in study.points.iter().enumerate() {
             let case = study.case(point, 0);
-            if let Err(e) = equipment.check(&case) {
+            let checked = study.simulation.check(&case).and_then(|()| {
+                if user_templates {
+                    study.simulation.render_texts(&case).map(drop)
+                } else {
+                    Ok(())
+                }
+            });
+            if let Err(e) = checked {
                 let values: Vec<String> = study
                     .factors
                     .iter()
                     .zip(&point.natural)
                     .map(|(f, v)| format!("{} = {v}", f.name))
                     .collect();
+                let field = if deck.is_some() {
+                    "case.templates"
+                } else if user_templates {
+                    "template"
+                } else {
+                    "factors"
+                };
                 return Err(self.error(
-                    "factors",
+                    field,
                     format!(
                         "design point {index} ({}) cannot run: {e}",
                         values.join(", ")
                     ),
                 ));
             }
+        }
+        if deck.is_some() {
+            self.every_factor_is_used(&study)?;
         }
         Ok(study)
     }
@@ -1098,7 +1154,7 @@ impl Checker<'_> {
     fn executor(
         &self,
         executor: &ExecutorFile,
-        simulation: &Simulation,
+        simulation: &dyn Simulation,
     ) -> Result<ExecutorConfig, StudyError> {
         let cores = std::thread::available_parallelism()
             .map(|n| n.get())

@@ -98,9 +98,7 @@ fn missing_template_is_refused() {
     );
     let message = error(&text);
     assert!(
-        message.starts_with(
-            "jobs/study.yaml:3:11: template: cannot read the template jobs/no/such.in.tera: "
-        ),
+        message.starts_with("jobs/study.yaml:3:11: template: cannot read jobs/no/such.in.tera: "),
         "{message}"
     );
 }
@@ -261,7 +259,7 @@ fn slurm_options_are_checked_and_name_their_field() {
 #[test]
 fn equipment_defaults_to_the_hopper_and_unknown_equipment_is_refused() {
     let study = load(VALID).unwrap();
-    assert_eq!(study.simulation.equipment.name(), "hopper");
+    assert_eq!(study.simulation.equipment_name(), "hopper");
     let named = load(&VALID.replace(
         "solver: liggghts\n",
         "equipment: hopper\nsolver: liggghts\n",
@@ -269,7 +267,7 @@ fn equipment_defaults_to_the_hopper_and_unknown_equipment_is_refused() {
     assert_eq!(named.unwrap().file_sha256.len(), 64);
     assert_eq!(
         error(&VALID.replace("solver: liggghts\n", "equipment: silo\nsolver: liggghts\n")),
-        "jobs/study.yaml:2:12: equipment: unknown equipment `silo`; expected one of: hopper"
+        "jobs/study.yaml:2:12: equipment: unknown equipment `silo`; expected one of: hopper, custom"
     );
 }
 

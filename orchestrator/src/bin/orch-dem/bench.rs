@@ -13,7 +13,8 @@ use anyhow::{bail, Context};
 use clap::Args;
 use orch_adapters::hopper::{self, Hopper};
 use orch_adapters::{
-    liggghts, native, Case, DemSolver, Equipment, Observations, ResolvedParameters, Simulation,
+    liggghts, native, Case, DemSolver, Equipment, EquipmentOnSolver, Observations,
+    ResolvedParameters, Simulation,
 };
 use orch_granular::{DischargeResponses, ResponseOptions};
 
@@ -67,15 +68,20 @@ fn case(args: &BenchArgs) -> Case {
     Case {
         parameters,
         seed: 1,
+        text: Default::default(),
     }
 }
 
 /// Renders the hopper `case` for `solver` into `dir`; returns the simulation.
-fn render(solver: &'static DemSolver, case: &Case, dir: &Path) -> anyhow::Result<Simulation> {
+fn render(
+    solver: &'static DemSolver,
+    case: &Case,
+    dir: &Path,
+) -> anyhow::Result<EquipmentOnSolver> {
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
-    let simulation = Simulation::new(&Hopper, solver).context("no hopper template")?;
+    let simulation = EquipmentOnSolver::new(&Hopper, solver).context("no hopper template")?;
     simulation
-        .render(case, &simulation.default_template(), dir)
+        .render(case, dir)
         .with_context(|| format!("cannot render the {} case", solver.name))?;
     Ok(simulation)
 }

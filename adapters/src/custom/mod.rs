@@ -1,0 +1,212 @@
+//! A user's own deck as the equipment (`equipment: custom` with a `case:` section): any
+//! Tera templates rendered into each run, side files copied beside them, the command
+//! that runs them, and the responses the study declares ([`DeclaredResponse`]).
+//!
+//! Templates see the case's values and nothing else: parameters (numbers and text),
+//! `seed` and `cores`. Tera's `get_env` is refused and a template can include only the
+//! case's other templates (there is no file loader), so nothing from orch's environment
+//! or from outside the study folder reaches a run directory.
+
+mod declared;
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+pub use declared::{Column, DeclaredResponse, Reduction, Source};
+
+use crate::simulation::{context_of, locked_tera, write, write_bytes};
+use crate::{
+    Case, CommandSpec, ParameterSpec, ParseError, RenderError, ResponseSpec, RunResults,
+    Simulation, TemplateText,
+};
+
+/// The equipment name of a user's own deck in study files.
+pub const EQUIPMENT: &str = "custom";
+
+/// What the store keeps as a custom study's template (its files are kept apart).
+pub const TEMPLATE_NAME: &str = "(custom case: templates and files kept with the study)";
+
+/// A template of the case, rendered into the run directory under `output`.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct CaseTemplate {
+    /// Its path as the study names it (relative to the study file), for messages.
+    pub source: String,
+    /// The file it becomes in the run directory: its file name without `.tera`.
+    pub output: String,
+    /// Its text.
+    pub text: String,
+}
+
+/// A side file copied unchanged into every run.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct SideFile {
+    /// Its name in the run directory (its file name).
+    pub name: String,
+    /// Its bytes.
+    pub bytes: Vec<u8>,
+}
+
+/// How a user's deck runs.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct DeckCommand {
+    /// The program and its arguments, one word each.
+    pub words: Vec<String>,
+    /// Cores it uses (the executor counts them; templates see `cores`).
+    pub cores: usize,
+    /// The program's log in the run directory, for failure reasons and `orch logs`.
+    pub log_file: String,
+}
+
+/// The command's words, each rendered with Tera where it uses `{{ cores }}`; the error
+/// names the word.
+pub fn render_command(words: &[String], cores: usize) -> Result<Vec<String>, String> {
+    let mut context = tera::Context::new();
+    context.insert("cores", &cores);
+    words
+        .iter()
+        .map(|word| {
+            if !word.contains("{{") {
+                return Ok(word.clone());
+            }
+            locked_tera().render_str(word, &context).map_err(|e| {
+                format!("cannot render `{word}`: {e}; a command word sees only `cores`")
+            })
+        })
+        .collect()
+}
+
+/// A user's own deck.
+#[derive(Debug, Clone)]
+pub struct CustomDeck {
+    templates: Vec<CaseTemplate>,
+    files: Vec<SideFile>,
+    command: DeckCommand,
+    parameters: Vec<ParameterSpec>,
+    responses: Vec<DeclaredResponse>,
+    response_specs: Vec<ResponseSpec>,
+    tera: tera::Tera,
+}
+
+impl CustomDeck {
+    /// The deck, its templates compiled once; the error names the template and line.
+    pub fn new(
+        templates: Vec<CaseTemplate>,
+        files: Vec<SideFile>,
+        command: DeckCommand,
+        parameters: Vec<ParameterSpec>,
+        responses: Vec<DeclaredResponse>,
+    ) -> Result<CustomDeck, RenderError> {
+        let mut tera = locked_tera();
+        for template in &templates {
+            tera.add_raw_template(&template.source, &template.text)
+                .map_err(|e| RenderError::template(&template.source, &template.text, &e))?;
+        }
+        let response_specs = responses
+            .iter()
+            .map(|r| ResponseSpec {
+                name: r.name.clone().into(),
+                unit: r.unit.clone().into(),
+                description: format!("declared: {} of {}", r.reduce.name(), r.source).into(),
+            })
+            .collect();
+        Ok(CustomDeck {
+            templates,
+            files,
+            command,
+            parameters,
+            responses,
+            response_specs,
+            tera,
+        })
+    }
+
+    /// The templates, for messages.
+    pub fn templates(&self) -> &[CaseTemplate] {
+        &self.templates
+    }
+}
+
+impl Simulation for CustomDeck {
+    fn equipment_name(&self) -> &str {
+        EQUIPMENT
+    }
+
+    fn solver_name(&self) -> &str {
+        &self.command.words[0]
+    }
+
+    fn parameters(&self) -> &[ParameterSpec] {
+        &self.parameters
+    }
+
+    fn accepts_undeclared_parameters(&self) -> bool {
+        true
+    }
+
+    fn responses(&self) -> &[ResponseSpec] {
+        &self.response_specs
+    }
+
+    fn headline_responses(&self) -> Vec<String> {
+        self.responses.iter().map(|r| r.name.clone()).collect()
+    }
+
+    fn template(&self) -> TemplateText {
+        TemplateText {
+            name: TEMPLATE_NAME.to_string(),
+            text: String::new(),
+        }
+    }
+
+    fn check(&self, _case: &Case) -> Result<(), RenderError> {
+        Ok(())
+    }
+
+    /// Every template rendered for `case`, as `(output file, text)`.
+    fn render_texts(&self, case: &Case) -> Result<Vec<(String, String)>, RenderError> {
+        let context = context_of(case, self.command.cores);
+        self.templates
+            .iter()
+            .map(|template| {
+                self.tera
+                    .render(&template.source, &context)
+                    .map(|text| (template.output.clone(), text))
+                    .map_err(|e| RenderError::template(&template.source, &template.text, &e))
+            })
+            .collect()
+    }
+
+    fn render(&self, case: &Case, run_dir: &Path) -> Result<(), RenderError> {
+        for (output, text) in self.render_texts(case)? {
+            write(run_dir, &output, &text)?;
+        }
+        for file in &self.files {
+            write_bytes(run_dir, &file.name, &file.bytes)?;
+        }
+        Ok(())
+    }
+
+    fn command(&self) -> CommandSpec {
+        CommandSpec {
+            program: self.command.words[0].clone(),
+            args: self.command.words[1..].to_vec(),
+            env: BTreeMap::new(),
+            cores: self.command.cores,
+            log_file: self.command.log_file.clone(),
+        }
+    }
+
+    fn install_hint(&self) -> String {
+        "install it, or give its full path as the first word of `case.command`".to_string()
+    }
+
+    fn results(&self, _case: &Case, run_dir: &Path) -> Result<RunResults, ParseError> {
+        let mut results = RunResults::default();
+        for response in &self.responses {
+            let (value, series) = response.read(run_dir)?;
+            results.responses.push((response.name.clone(), value));
+            results.series.push(series);
+        }
+        Ok(results)
+    }
+}

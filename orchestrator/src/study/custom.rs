@@ -1,0 +1,463 @@
+//! What runs for each design point, validated: a built-in equipment on a solver (its
+//! template or the user's), or the user's own deck (`equipment: custom`, `case:`).
+//!
+//! Files a study names (templates, side files) are read relative to the study file,
+//! must stay inside its folder, and are kept in the store: on resume they come from
+//! there, not from the disk ([`super::Stored`]).
+
+use std::path::{Component, Path};
+
+use orch_adapters::custom::{
+    render_command, CaseTemplate, Column, CustomDeck, DeckCommand, DeclaredResponse, Reduction,
+    SideFile, Source,
+};
+use orch_adapters::ParameterSpec;
+
+use super::file::{ColumnFile, DeclaredResponseFile};
+use super::*;
+
+/// The equipment name of a user's own deck.
+pub const EQUIPMENT: &str = orch_adapters::custom::EQUIPMENT;
+
+/// The last component of a relative path: what a template or side file is called in
+/// the run directory.
+fn file_name(relative: &str) -> &str {
+    relative.rsplit('/').next().unwrap_or(relative)
+}
+
+impl Checker<'_> {
+    /// A built-in equipment on the study's solver, with the stored, the user's or the
+    /// solver's default template.
+    pub(super) fn builtin_simulation(
+        &self,
+        file: &StudyFile,
+    ) -> Result<EquipmentOnSolver, StudyError> {
+        if file.case.is_some() {
+            return Err(self.error(
+                "case",
+                "a `case:` section describes your own deck; add `equipment: custom`, or remove it",
+            ));
+        }
+        let equipment_name = file.equipment.as_deref().unwrap_or(DEFAULT_EQUIPMENT);
+        let equipment = equipment_for(equipment_name).ok_or_else(|| {
+            self.error(
+                "equipment",
+                format!(
+                    "unknown equipment `{equipment_name}`; expected one of: {}, {EQUIPMENT}",
+                    equipment_names().join(", ")
+                ),
+            )
+        })?;
+        let Some(solver_name) = &file.solver else {
+            return Err(self.error(
+                "solver",
+                format!("expected `solver:`, one of: {}", solver_names().join(", ")),
+            ));
+        };
+        let solver = solver_for(solver_name).ok_or_else(|| {
+            self.error(
+                "solver",
+                format!(
+                    "unknown solver `{solver_name}`; expected one of: {}",
+                    solver_names().join(", ")
+                ),
+            )
+        })?;
+        let simulation = EquipmentOnSolver::new(equipment, solver).ok_or_else(|| {
+            let able: Vec<&str> = orch_adapters::SOLVERS
+                .iter()
+                .filter(|s| s.template_for(equipment_name).is_some())
+                .map(|s| s.name)
+                .collect();
+            self.error(
+                "solver",
+                format!(
+                    "the {} solver has no template for the {equipment_name} equipment; expected one of: {}",
+                    solver.name,
+                    able.join(", ")
+                ),
+            )
+        })?;
+        let stored = self.stored.as_ref().and_then(|s| s.template.clone());
+        Ok(match (stored, &file.template) {
+            (Some(stored), Some(_)) => simulation.with_template(stored),
+            (_, None) => simulation,
+            (None, Some(relative)) => {
+                let bytes = self.read_input("template", relative)?;
+                let text = String::from_utf8(bytes).map_err(|_| {
+                    self.error(
+                        "template",
+                        format!("{relative} is not UTF-8 text; expected a Tera template"),
+                    )
+                })?;
+                simulation.with_template(Template {
+                    name: self.base().join(relative).display().to_string(),
+                    text,
+                })
+            }
+        })
+    }
+
+    /// The user's own deck: templates (compiled), side files, command, declared
+    /// parameters and responses. Every file read is added to `inputs`.
+    pub(super) fn custom_deck(
+        &self,
+        file: &StudyFile,
+        inputs: &mut Vec<(String, Vec<u8>)>,
+    ) -> Result<CustomDeck, StudyError> {
+        let Some(case) = &file.case else {
+            return Err(self.error(
+                "equipment",
+                "`equipment: custom` needs a `case:` section: templates, command and responses (see docs/custom-decks.md)",
+            ));
+        };
+        if file.solver.is_some() {
+            return Err(self.error(
+                "solver",
+                "a custom case runs `case.command`; remove `solver:`",
+            ));
+        }
+        if file.template.is_some() {
+            return Err(self.error(
+                "template",
+                "a custom case lists its templates under `case.templates`; remove `template:`",
+            ));
+        }
+        if case.templates.is_empty() {
+            return Err(self.error("case.templates", "expected at least one template"));
+        }
+        let mut templates = Vec::new();
+        let mut outputs: Vec<String> = Vec::new();
+        for (i, relative) in case.templates.iter().enumerate() {
+            let field = format!("case.templates[{i}]");
+            let bytes = self.read_input(&field, relative)?;
+            let text = String::from_utf8(bytes.clone()).map_err(|_| {
+                self.error(
+                    &field,
+                    format!("{relative} is not UTF-8 text; expected a Tera template"),
+                )
+            })?;
+            inputs.push((relative.clone(), bytes));
+            let name = file_name(relative);
+            let output = name.strip_suffix(".tera").unwrap_or(name).to_string();
+            self.unique_in_run_dir(&field, &output, &outputs)?;
+            outputs.push(output.clone());
+            templates.push(CaseTemplate {
+                source: relative.clone(),
+                output,
+                text,
+            });
+        }
+        let mut files = Vec::new();
+        for (i, relative) in case.files.iter().enumerate() {
+            let field = format!("case.files[{i}]");
+            let bytes = self.read_input(&field, relative)?;
+            inputs.push((relative.clone(), bytes.clone()));
+            let name = file_name(relative).to_string();
+            self.unique_in_run_dir(&field, &name, &outputs)?;
+            outputs.push(name.clone());
+            files.push(SideFile { name, bytes });
+        }
+        let cores = case.cores.unwrap_or(1);
+        if cores == 0 || cores > 4096 {
+            return Err(self.error(
+                "case.cores",
+                format!("expected 1 to 4096 cores, got {cores}"),
+            ));
+        }
+        let command = self.command(&case.command, cores)?;
+        let log_file = match &case.log {
+            Some(log) => {
+                self.relative_path("case.log", log)?;
+                log.clone()
+            }
+            None => crate::executor::STDOUT_FILE.to_string(),
+        };
+        let mut parameters = Vec::new();
+        for (name, declared) in &case.parameters {
+            let at = format!("case.parameters.{name}");
+            let (min, max) = (
+                declared.min.unwrap_or(f64::NEG_INFINITY),
+                declared.max.unwrap_or(f64::INFINITY),
+            );
+            if !(min <= declared.default && declared.default <= max) {
+                return Err(self.error(
+                    &format!("{at}.default"),
+                    format!(
+                        "expected a default within [{min}, {max}], got {}",
+                        declared.default
+                    ),
+                ));
+            }
+            parameters.push(ParameterSpec {
+                name: name.clone().into(),
+                default: declared.default,
+                unit: declared.unit.clone().unwrap_or_default().into(),
+                min,
+                max,
+                description: declared.description.clone().unwrap_or_default().into(),
+            });
+        }
+        if case.responses.is_empty() {
+            return Err(self.error(
+                "case.responses",
+                "expected at least one response to read from each run",
+            ));
+        }
+        let mut responses = Vec::new();
+        for (i, declared) in case.responses.iter().enumerate() {
+            let response =
+                self.declared_response(&format!("case.responses[{i}]"), declared, &log_file)?;
+            if responses
+                .iter()
+                .any(|r: &DeclaredResponse| r.name == response.name)
+            {
+                return Err(self.error(
+                    &format!("case.responses[{i}].name"),
+                    format!("response `{}` is declared twice", response.name),
+                ));
+            }
+            responses.push(response);
+        }
+        CustomDeck::new(
+            templates,
+            files,
+            DeckCommand {
+                words: command,
+                cores,
+                log_file,
+            },
+            parameters,
+            responses,
+        )
+        .map_err(|e| self.error("case.templates", e.to_string()))
+    }
+
+    /// The command's words, each rendered with `cores`.
+    fn command(&self, words: &[String], cores: usize) -> Result<Vec<String>, StudyError> {
+        if words.is_empty() || words[0].trim().is_empty() {
+            return Err(self.error(
+                "case.command",
+                "expected the program and its arguments, one word each: [liggghts, -in, in.deck]",
+            ));
+        }
+        if let Some(i) = words.iter().position(|w| w.chars().any(char::is_control)) {
+            return Err(self.error(
+                &format!("case.command[{i}]"),
+                "expected a word without control characters",
+            ));
+        }
+        render_command(words, cores).map_err(|e| self.error("case.command", e))
+    }
+
+    /// One declared response: exactly one source, a known reduction.
+    fn declared_response(
+        &self,
+        at: &str,
+        declared: &DeclaredResponseFile,
+        log_file: &str,
+    ) -> Result<DeclaredResponse, StudyError> {
+        let field = |name: &str| format!("{at}.{name}");
+        let name = &declared.name;
+        if name.is_empty() || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
+            return Err(self.error(
+                &field("name"),
+                format!("expected letters, digits and `_`, got `{name}`"),
+            ));
+        }
+        if name.starts_with("solver_") {
+            return Err(self.error(
+                &field("name"),
+                "names starting with `solver_` are orch's own",
+            ));
+        }
+        let column = |value: &Option<ColumnFile>, default: Option<Column>, which: &str| match value
+        {
+            Some(ColumnFile::Number(0)) => {
+                Err(self.error(&field(which), "columns are numbered from 1"))
+            }
+            Some(ColumnFile::Number(n)) => Ok(Column::Index(*n)),
+            Some(ColumnFile::Name(n)) => Ok(Column::Name(n.clone())),
+            None => default.ok_or_else(|| {
+                self.error(
+                    &field(which),
+                    "a `table:` response needs `column:` (its header name or number)",
+                )
+            }),
+        };
+        let sources = [
+            declared.table.is_some(),
+            declared.regex.is_some(),
+            declared.json.is_some(),
+        ];
+        let source = match (&declared.table, &declared.regex, &declared.json) {
+            _ if sources.iter().filter(|s| **s).count() != 1 => {
+                return Err(self.error(
+                    at,
+                    "expected exactly one source: `table:` (with `column:`), `regex:` (over `file:`, default the log) or `json:` (with `key:`)",
+                ))
+            }
+            (Some(table), _, _) => {
+                self.relative_path(&field("table"), table)?;
+                Source::Table {
+                    file: table.clone(),
+                    column: column(&declared.column, None, "column")?,
+                    time_column: column(&declared.time_column, Some(Column::Index(1)), "time_column")?,
+                }
+            }
+            (_, Some(pattern), _) => {
+                let file = declared.file.clone().unwrap_or_else(|| log_file.to_string());
+                self.relative_path(&field("file"), &file)?;
+                Source::regex(file, pattern).map_err(|e| self.error(&field("regex"), e))?
+            }
+            (_, _, Some(json)) => {
+                self.relative_path(&field("json"), json)?;
+                let key = declared.key.clone().ok_or_else(|| {
+                    self.error(at, "a `json:` response needs `key:` (a dotted path, e.g. `flow.rate`)")
+                })?;
+                Source::Json {
+                    file: json.clone(),
+                    key,
+                }
+            }
+            _ => unreachable!("exactly one source is set"),
+        };
+        let misplaced = [
+            (
+                "column",
+                declared.column.is_some() && declared.table.is_none(),
+            ),
+            (
+                "time_column",
+                declared.time_column.is_some() && declared.table.is_none(),
+            ),
+            ("file", declared.file.is_some() && declared.regex.is_none()),
+            ("key", declared.key.is_some() && declared.json.is_none()),
+        ];
+        if let Some((name, _)) = misplaced.iter().find(|(_, wrong)| *wrong) {
+            return Err(self.error(
+                &field(name),
+                format!("`{name}` does not apply to this source"),
+            ));
+        }
+        let reduce = match &declared.reduce {
+            None => Reduction::Last,
+            Some(name) => Reduction::from_name(name).ok_or_else(|| {
+                let names: Vec<&str> = Reduction::ALL.iter().map(|(n, _)| *n).collect();
+                self.error(
+                    &field("reduce"),
+                    format!(
+                        "unknown reduction `{name}`; expected one of: {}",
+                        names.join(", ")
+                    ),
+                )
+            })?,
+        };
+        if let (Some(from), Some(to)) = (declared.from, declared.to) {
+            if from > to {
+                return Err(self.error(
+                    &field("to"),
+                    format!("expected `to` ≥ `from` ({from}), got {to}"),
+                ));
+            }
+        }
+        Ok(DeclaredResponse {
+            name: name.clone(),
+            unit: declared.unit.clone().unwrap_or_default(),
+            source,
+            reduce,
+            from: declared.from,
+            to: declared.to,
+        })
+    }
+
+    /// Refuses a second file of the same name in the run directory.
+    fn unique_in_run_dir(
+        &self,
+        field: &str,
+        name: &str,
+        taken: &[String],
+    ) -> Result<(), StudyError> {
+        if taken.iter().any(|t| t == name) {
+            return Err(self.error(
+                field,
+                format!("two files would be `{name}` in the run directory; rename one"),
+            ));
+        }
+        Ok(())
+    }
+
+    /// Refuses a path that could leave the folder it is relative to.
+    fn relative_path(&self, field: &str, relative: &str) -> Result<(), StudyError> {
+        let path = Path::new(relative);
+        let escapes = path
+            .components()
+            .any(|c| !matches!(c, Component::Normal(_) | Component::CurDir));
+        if relative.is_empty() || escapes || relative.chars().any(char::is_control) {
+            return Err(self.error(
+                field,
+                format!("expected a path inside the study's folder (relative, no `..`), got `{relative}`"),
+            ));
+        }
+        Ok(())
+    }
+
+    /// The study file's folder.
+    fn base(&self) -> &Path {
+        self.path.parent().unwrap_or(Path::new("."))
+    }
+
+    /// A file the study names, from the store when it was stored, else from the disk
+    /// relative to the study file.
+    fn read_input(&self, field: &str, relative: &str) -> Result<Vec<u8>, StudyError> {
+        self.relative_path(field, relative)?;
+        if let Some(stored) = &self.stored {
+            if let Some(bytes) = stored.inputs.get(relative) {
+                return Ok(bytes.clone());
+            }
+        }
+        let resolved = self.base().join(relative);
+        std::fs::read(&resolved).map_err(|e| {
+            self.error(
+                field,
+                format!(
+                    "cannot read {}: {e}; expected a file relative to the study file",
+                    resolved.display()
+                ),
+            )
+        })
+    }
+
+    /// Each factor must change what the templates render: the centre point against the
+    /// same point with that factor at its maximum.
+    pub(super) fn every_factor_is_used(&self, study: &Study) -> Result<(), StudyError> {
+        let centre: Vec<f64> = study
+            .factors
+            .iter()
+            .map(|f| f.range.to_natural(0.0))
+            .collect();
+        let render = |natural: &[f64]| study.simulation.render_texts(&study.case_at(natural, 0));
+        let Ok(base) = render(&centre) else {
+            return Ok(()); // every design point rendered; the centre's error shows there
+        };
+        for (i, factor) in study.factors.iter().enumerate() {
+            let mut moved = centre.clone();
+            moved[i] = factor.range.max;
+            if render(&moved).is_ok_and(|texts| texts == base) {
+                return Err(self.error(
+                    &format!("factors[{i}].name"),
+                    format!(
+                        "factor `{}` is not used by the templates: they render the same with {} = {} and {} = {}; use it in a template (`{{{{ {} }}}}`) or remove the factor",
+                        factor.name,
+                        factor.name,
+                        centre[i],
+                        factor.name,
+                        factor.range.max,
+                        factor.name
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+}

@@ -106,7 +106,7 @@ impl StudyDetail {
             let job = &detail.job;
             let mut row = vec![
                 job.name.clone(),
-                job.state.clone(),
+                job.state.to_string(),
                 job.attempts.to_string(),
                 job.executor_handle.clone().unwrap_or_else(|| "-".into()),
             ];
@@ -161,7 +161,7 @@ impl StudyDetail {
             "study": {
                 "name": self.study.name,
                 "solver": self.study.solver,
-                "state": self.study.state,
+                "state": self.study.state.as_str(),
                 "file": self.study.file_path,
                 "project_dir": project_dir.display().to_string(),
                 "counts": counts,
@@ -173,7 +173,7 @@ impl StudyDetail {
             "jobs": self.jobs.iter().map(|d| json!({
                 "name": d.job.name,
                 "id": d.job.id,
-                "state": d.job.state,
+                "state": d.job.state.as_str(),
                 "attempts": d.job.attempts,
                 "handle": d.job.executor_handle,
                 "scheduler_state": d.job.scheduler_state,
@@ -391,7 +391,7 @@ pub async fn overview(
             rows.push(vec![
                 study.name.clone(),
                 study.solver.clone(),
-                study.state.clone(),
+                study.state.to_string(),
                 jobs.len().to_string(),
                 waiting.to_string(),
                 n(JobState::Running).to_string(),
@@ -405,7 +405,7 @@ pub async fn overview(
             studies.push(json!({
                 "name": study.name,
                 "solver": study.solver,
-                "state": study.state,
+                "state": study.state.as_str(),
                 "jobs": jobs.len(),
                 "counts": by_state,
                 "project_dir": dir.display().to_string(),

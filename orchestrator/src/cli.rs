@@ -754,6 +754,9 @@ async fn cancel(project_dir: Option<&Path>, name: &str) -> anyhow::Result<i32> {
 /// `retry_failed`, failed) jobs back in the queue. A study another live driver holds is
 /// refused before anything is written.
 async fn claim_and_reopen(store: &Store, row: &StudyRow, retry_failed: bool) -> anyhow::Result<()> {
+    // Every job is read before the claim: a store this orch cannot read (a state it
+    // does not know) is refused before anything is written.
+    store.jobs(row.id).await?;
     let (pid, started) = process::current();
     store
         .claim_driver(row, pid, started, process::is_alive)

@@ -16,6 +16,10 @@
 //!    waits until its upstream job has succeeded and is rendered from that job's case
 //!    and responses; when the upstream job failed or was cancelled, so is the stage.
 //!
+//! What to do about each job is decided by the pure functions of [`crate::decide`]
+//! (jobs, reports, budgets and the time in; actions out); this loop reads the store
+//! and the executor, calls them, and applies their actions.
+//!
 //! The driver knows no equipment, solver or stage by name: a design job is rendered,
 //! run and read through the study's [`orch_adapters::Simulation`], a stage job through
 //! its [`orch_adapters::Stage`].
@@ -25,16 +29,17 @@
 //! jobs caught between render and launch are re-attached (Slurm, found by name) or
 //! rendered again.
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::{BTreeMap, HashMap, HashSet};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use orch_adapters::{CommandSpec, RunResults, Upstream};
 use tokio::signal::unix::{signal, SignalKind};
 
+use crate::decide::{self, is_launched, Action, Budgets, CancelCause, Failure};
 use crate::executor::{
-    Executor, JobStatus, LaunchSpec, LocalExecutor, Recovered, SlurmExecutor, StopCause, Watched,
-    ATTEMPTS_LOG, STDERR_FILE, STDOUT_FILE,
+    Executor, LaunchSpec, LocalExecutor, Recovered, SlurmExecutor, Watched, ATTEMPTS_LOG,
+    STDERR_FILE, STDOUT_FILE,
 };
 use crate::output::errln;
 use crate::store::{now_s, JobResults, JobRow, JobState, PointRow, Store, StoreError, StudyState};
@@ -93,21 +98,23 @@ pub async fn drive(store: &Store, study_id: i64, study: &Study) -> Result<Summar
     }
 }
 
-/// True while a job holds a slot of `max_parallel`: handed to the executor, not final.
-fn is_launched(state: JobState) -> bool {
-    matches!(state, JobState::Submitted | JobState::Running)
-}
-
 async fn drive_with<E: Executor>(
     store: &Store,
     study_id: i64,
     study: &Study,
     executor: E,
 ) -> Result<Summary, DriverError> {
+    let budgets = Budgets {
+        max_parallel: study.executor.max_parallel,
+        retries: study.executor.retries,
+        time_limit: study.executor.time_limit,
+        batch: executor.is_batch(),
+    };
     let mut driver = Driver {
         store,
         study,
         study_id,
+        budgets,
         executor,
         points: store
             .points(study_id)
@@ -144,25 +151,12 @@ async fn drive_with<E: Executor>(
             driver.poll(&launched).await?;
         }
         let jobs = store.jobs(study_id).await?;
-        // Stages settled here are still pending in `jobs`, so not ready: next tick sees them.
-        driver.settle_orphaned_stages(&jobs).await?;
-        let state_of: HashMap<i64, JobState> = jobs.iter().map(|j| (j.id, j.state())).collect();
-        let ready = |job: &JobRow| {
-            job.after_job_id
-                .is_none_or(|after| state_of.get(&after) == Some(&JobState::Succeeded))
-        };
-        let launched = jobs.iter().filter(|j| is_launched(j.state())).count();
-        let free = study.executor.max_parallel.saturating_sub(launched);
-        let launchable: Vec<&JobRow> = jobs
-            .iter()
-            .filter(|j| j.state() == JobState::Pending && !driver.terminating.contains_key(&j.id))
-            .filter(|j| ready(j))
-            .take(free)
-            .collect();
-        for job in launchable {
-            driver.launch(job).await?;
-        }
-        if jobs.iter().all(|j| j.state().is_final()) {
+        let terminating: HashSet<i64> = driver.terminating.keys().copied().collect();
+        let actions = decide::settle_and_launch(&jobs, &driver.budgets, &terminating);
+        driver
+            .apply(&jobs.iter().collect::<Vec<_>>(), actions)
+            .await?;
+        if decide::is_finished(&jobs) {
             break Ending::Finished;
         }
     };
@@ -189,6 +183,7 @@ struct Driver<'a, E> {
     store: &'a Store,
     study: &'a Study,
     study_id: i64,
+    budgets: Budgets,
     executor: E,
     points: HashMap<i64, PointRow>,
     /// Jobs whose terminated attempt may still be dying (by handle): not relaunched yet,
@@ -252,34 +247,6 @@ impl<E: Executor> Driver<'_, E> {
             self.last_poll = Some(Instant::now());
         }
         due
-    }
-
-    /// Stage jobs whose upstream job failed or was cancelled follow it: nothing can
-    /// feed them. (`orch resume` reopens both.)
-    async fn settle_orphaned_stages(&mut self, jobs: &[JobRow]) -> Result<(), DriverError> {
-        let by_id: HashMap<i64, &JobRow> = jobs.iter().map(|j| (j.id, j)).collect();
-        for job in jobs.iter().filter(|j| j.state() == JobState::Pending) {
-            let Some(upstream) = job.after_job_id.and_then(|id| by_id.get(&id)) else {
-                continue;
-            };
-            let kind = job.stage_kind().unwrap_or("stage");
-            match upstream.state() {
-                JobState::Failed => {
-                    let reason = format!(
-                        "its upstream job {} failed, so the {kind} stage has no inputs",
-                        upstream.name
-                    );
-                    self.report(job, &format!("failed: {reason}"));
-                    self.store.mark_failed(job.id, None, &reason).await?;
-                }
-                JobState::Cancelled => {
-                    let note = format!("its upstream job {} was cancelled", upstream.name);
-                    self.store.mark_cancelled(job.id, &note).await?;
-                }
-                _ => {}
-            }
-        }
-        Ok(())
     }
 
     /// The study's stage of a stage job, or why it has none.
@@ -390,86 +357,122 @@ impl<E: Executor> Driver<'_, E> {
                 return Ok(());
             }
         };
-        for (job, report) in jobs.iter().zip(reports) {
-            if let Some(state) = &report.scheduler_state {
-                self.note_scheduler_state(job, state).await?;
-            }
-            self.act_on(job, report.status).await?;
-        }
-        Ok(())
+        let polled: Vec<(&JobRow, _)> = jobs.iter().copied().zip(reports).collect();
+        let actions = decide::on_reports(&polled, &self.budgets, now_s());
+        self.apply(jobs, actions).await
     }
 
-    async fn act_on(&mut self, job: &JobRow, status: JobStatus) -> Result<(), DriverError> {
-        let run_dir = PathBuf::from(&job.run_dir);
-        match status {
-            JobStatus::Queued => {}
-            JobStatus::Running if job.state() == JobState::Submitted => {
-                self.store.mark_started(job.id, now_s()).await?;
-            }
-            JobStatus::Running => self.enforce_time_limit(job, &run_dir).await?,
-            JobStatus::Exited(0) => self.collect(job, &run_dir).await?,
-            JobStatus::Exited(code) => {
-                let reason = format!(
-                    "the solver exited with status {code}; {}",
-                    failure_summary(&run_dir, &self.log_file(job))
-                );
-                self.fail_or_retry(job, Some(code), reason).await?;
-            }
-            JobStatus::Stopped { cause, reason } => {
-                if cause == StopCause::Cancelled {
-                    let note = format!("{reason}; `orch resume {}` runs it again", self.study.name);
-                    self.report(job, &note);
-                    self.store.mark_cancelled(job.id, &note).await?;
-                } else {
-                    let reason = format!(
-                        "{reason}; {}",
-                        failure_summary(&run_dir, &self.log_file(job))
-                    );
-                    self.fail_or_retry(job, None, reason).await?;
+    /// Applies the decisions of [`crate::decide`] about `jobs`, in order. Consecutive
+    /// terminations go to the executor in one call (one `scancel` for many).
+    async fn apply(&mut self, jobs: &[&JobRow], actions: Vec<Action>) -> Result<(), DriverError> {
+        let by_id: HashMap<i64, &JobRow> = jobs.iter().map(|j| (j.id, *j)).collect();
+        let mut actions = actions.into_iter().peekable();
+        while let Some(action) = actions.next() {
+            let Some(job) = by_id.get(&action.job()).copied() else {
+                continue;
+            };
+            match action {
+                Action::NoteSchedulerState { state, .. } => {
+                    self.store.set_scheduler_state(job.id, &state).await?;
                 }
-            }
-            JobStatus::Lost => {
-                // A lost attempt spends the retry budget like any failure, or a solver
-                // that loses its own exit status would run again for ever.
-                let reason = "it ended without an exit status (orch, the machine or the scheduler stopped it, or its run directory was removed)".to_string();
-                self.fail_or_retry(job, None, reason).await?;
+                Action::MarkStarted { .. } => self.store.mark_started(job.id, now_s()).await?,
+                Action::Collect { .. } => self.collect(job).await?,
+                Action::Terminate { job: id, handle } => {
+                    let mut batch = vec![(id, handle)];
+                    while let Some(Action::Terminate { .. }) = actions.peek() {
+                        if let Some(Action::Terminate { job, handle }) = actions.next() {
+                            batch.push((job, handle));
+                        }
+                    }
+                    let handles: Vec<&str> = batch.iter().map(|(_, h)| h.as_str()).collect();
+                    self.executor.terminate(&handles).await;
+                    self.terminating.extend(batch);
+                }
+                Action::Retry { .. } | Action::Fail { .. } => {
+                    self.record_failure(job, action).await?;
+                }
+                Action::FailOrphan { upstream, .. } => {
+                    let kind = job.stage_kind().unwrap_or("stage");
+                    let reason = format!(
+                        "its upstream job {upstream} failed, so the {kind} stage has no inputs"
+                    );
+                    self.report(job, &format!("failed: {reason}"));
+                    self.store.mark_failed(job.id, None, &reason).await?;
+                }
+                Action::Cancel { cause, .. } => match cause {
+                    CancelCause::Scheduler(reason) => {
+                        let note =
+                            format!("{reason}; `orch resume {}` runs it again", self.study.name);
+                        self.report(job, &note);
+                        self.store.mark_cancelled(job.id, &note).await?;
+                    }
+                    CancelCause::Upstream(upstream) => {
+                        let note = format!("its upstream job {upstream} was cancelled");
+                        self.store.mark_cancelled(job.id, &note).await?;
+                    }
+                    CancelCause::Study => {
+                        // `orch cancel` may have got there first; that is fine.
+                        self.store
+                            .mark_cancelled(job.id, "cancelled by orch cancel")
+                            .await
+                            .ok();
+                    }
+                },
+                Action::Requeue { .. } => {
+                    self.store
+                        .requeue(job.id, "interrupted by the user", true)
+                        .await?;
+                }
+                Action::Launch { .. } => self.launch(job).await?,
             }
         }
         Ok(())
     }
 
-    /// Stores what the scheduler says about a job when it changed.
-    async fn note_scheduler_state(&self, job: &JobRow, state: &str) -> Result<(), DriverError> {
-        if job.scheduler_state.as_deref() != Some(state) {
-            self.store.set_scheduler_state(job.id, state).await?;
+    /// What a user needs to read of a failure: the cause and, where the run left
+    /// output, what it says.
+    fn reason(&self, job: &JobRow, failure: &Failure) -> String {
+        let summary = || failure_summary(Path::new(&job.run_dir), &self.log_file(job));
+        match failure {
+            Failure::Exited(code) => {
+                format!("the solver exited with status {code}; {}", summary())
+            }
+            Failure::Stopped(reason) => format!("{reason}; {}", summary()),
+            Failure::Lost => "it ended without an exit status (orch, the machine or the scheduler stopped it, or its run directory was removed)".to_string(),
+            Failure::TimeLimit(limit) => format!(
+                "exceeded its time limit of {}; {}",
+                humantime::format_duration(*limit),
+                summary()
+            ),
+            Failure::Unreadable(reason) => reason.clone(),
         }
-        Ok(())
     }
 
-    /// A local job past its time limit is terminated and fails (or runs again); a batch
-    /// scheduler enforces the limit itself.
-    async fn enforce_time_limit(
-        &mut self,
-        job: &JobRow,
-        run_dir: &Path,
-    ) -> Result<(), DriverError> {
-        let Some(limit) = self.study.executor.time_limit else {
-            return Ok(());
-        };
-        let elapsed = now_s() - job.started_at.unwrap_or_else(now_s);
-        if self.executor.is_batch() || elapsed <= limit.as_secs_f64() {
-            return Ok(());
+    /// Records a [`Action::Retry`] (back to pending) or [`Action::Fail`] with its
+    /// reason; other actions are not failures and are ignored here.
+    async fn record_failure(&mut self, job: &JobRow, action: Action) -> Result<(), DriverError> {
+        match action {
+            Action::Retry {
+                attempt,
+                budget,
+                failure,
+                ..
+            } => {
+                let reason = self.reason(job, &failure);
+                let note = format!("attempt {attempt} of {budget} failed: {reason}; retrying");
+                self.report(job, &note);
+                self.store.requeue(job.id, &note, false).await?;
+            }
+            Action::Fail { failure, .. } => {
+                let reason = self.reason(job, &failure);
+                self.report(job, &format!("failed: {reason}"));
+                self.store
+                    .mark_failed(job.id, failure.exit_code(), &reason)
+                    .await?;
+            }
+            _ => {}
         }
-        if let Some(handle) = job.executor_handle.as_deref() {
-            self.executor.terminate(&[handle]).await;
-            self.terminating.insert(job.id, handle.to_string());
-        }
-        let reason = format!(
-            "exceeded its time limit of {}; {}",
-            humantime::format_duration(limit),
-            failure_summary(run_dir, &self.log_file(job))
-        );
-        self.fail_or_retry(job, None, reason).await
+        Ok(())
     }
 
     fn log_file(&self, job: &JobRow) -> String {
@@ -479,18 +482,21 @@ impl<E: Executor> Driver<'_, E> {
         }
     }
 
-    /// Parses a successful run and stores its results, or fails the job with why not.
-    async fn collect(&mut self, job: &JobRow, run_dir: &Path) -> Result<(), DriverError> {
+    /// Parses a successful run and stores its results, or retries or fails the job
+    /// with why not.
+    async fn collect(&mut self, job: &JobRow) -> Result<(), DriverError> {
+        let unreadable =
+            |reason| decide::retry_or_fail(job, &self.budgets, Failure::Unreadable(reason));
         let case = self.case(job);
         let simulation = self.study.simulation.clone();
         let stage = match job.stage_kind() {
             Some(kind) => match self.stage_of(kind) {
                 Ok(config) => Some(config.stage),
-                Err(reason) => return self.fail_or_retry(job, Some(0), reason).await,
+                Err(reason) => return self.record_failure(job, unreadable(reason)).await,
             },
             None => None,
         };
-        let dir = run_dir.to_path_buf();
+        let dir = PathBuf::from(&job.run_dir);
         let parsed = tokio::task::spawn_blocking(move || match stage {
             Some(stage) => stage.results(&dir),
             None => simulation.results(&case, &dir),
@@ -505,29 +511,8 @@ impl<E: Executor> Driver<'_, E> {
             }
             Err(e) => {
                 let reason = format!("the solver exited 0 but its output cannot be read: {e}");
-                self.fail_or_retry(job, Some(0), reason).await?;
+                self.record_failure(job, unreadable(reason)).await?;
             }
-        }
-        Ok(())
-    }
-
-    async fn fail_or_retry(
-        &mut self,
-        job: &JobRow,
-        exit_code: Option<i32>,
-        reason: String,
-    ) -> Result<(), DriverError> {
-        let budget = 1 + self.study.executor.retries as i64;
-        if job.attempts < budget {
-            let note = format!(
-                "attempt {} of {budget} failed: {reason}; retrying",
-                job.attempts
-            );
-            self.report(job, &note);
-            self.store.requeue(job.id, &note, false).await?;
-        } else {
-            self.report(job, &format!("failed: {reason}"));
-            self.store.mark_failed(job.id, exit_code, &reason).await?;
         }
         Ok(())
     }
@@ -536,52 +521,33 @@ impl<E: Executor> Driver<'_, E> {
     /// scheduler keep running there and `orch resume` re-attaches to them.
     async fn interrupt(&mut self) -> Result<Ending, DriverError> {
         let jobs = self.store.jobs(self.study_id).await?;
-        if self.executor.is_batch() {
+        if self.budgets.batch {
             let left = jobs.iter().filter(|j| is_launched(j.state())).count();
             errln!(
                 "orch: interrupted; {left} submitted jobs keep running on the cluster; `orch resume {}` re-attaches to them",
                 self.study.name
             );
-            for job in jobs.iter().filter(|j| j.state() == JobState::Rendered) {
-                self.store
-                    .requeue(job.id, "interrupted by the user", true)
-                    .await?;
-            }
-            return Ok(Ending::Interrupted);
+        } else {
+            errln!(
+                "orch: interrupted; stopping running jobs (they will run again on `orch resume {}`)",
+                self.study.name
+            );
         }
-        errln!(
-            "orch: interrupted; stopping running jobs (they will run again on `orch resume {}`)",
-            self.study.name
-        );
-        for job in jobs {
-            if matches!(job.state(), JobState::Running | JobState::Rendered) {
-                if let Some(handle) = job.executor_handle.as_deref() {
-                    self.executor.terminate(&[handle]).await;
-                }
-                self.store
-                    .requeue(job.id, "interrupted by the user", true)
-                    .await?;
-            }
+        let actions = decide::on_interrupt(&jobs, &self.budgets);
+        self.apply(&jobs.iter().collect::<Vec<_>>(), actions)
+            .await?;
+        if !self.budgets.batch {
+            self.wait_for_terminations().await;
         }
-        self.wait_for_terminations().await;
         Ok(Ending::Interrupted)
     }
 
     /// The study was cancelled elsewhere: make sure nothing of ours still runs.
     async fn stop_for_cancel(&mut self) -> Result<Ending, DriverError> {
         let jobs = self.store.jobs(self.study_id).await?;
-        let handles: Vec<&str> = jobs
-            .iter()
-            .filter(|j| !j.state().is_final())
-            .filter_map(|j| j.executor_handle.as_deref())
-            .collect();
-        self.executor.terminate(&handles).await;
-        for job in jobs.iter().filter(|j| !j.state().is_final()) {
-            self.store
-                .mark_cancelled(job.id, "cancelled by orch cancel")
-                .await
-                .ok();
-        }
+        let actions = decide::on_cancel(&jobs);
+        self.apply(&jobs.iter().collect::<Vec<_>>(), actions)
+            .await?;
         self.wait_for_terminations().await;
         Ok(Ending::Cancelled)
     }

@@ -3,10 +3,11 @@
 //! The binary's pieces, from the outside in: [`cli`] parses arguments and dispatches;
 //! [`study`] turns a study file into a validated [`study::Study`]; [`store`] is the
 //! SQLite store that holds every state; [`driver`] runs a study's jobs through an
-//! [`executor`]; [`status`] reads the store for people and scripts.
+//! [`executor`], deciding through the pure functions of [`decide`]; [`status`] reads the store for people and scripts.
 
 pub mod catalogue;
 pub mod cli;
+pub mod decide;
 pub mod driver;
 pub mod executor;
 pub mod exit_codes;

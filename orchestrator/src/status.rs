@@ -2,22 +2,68 @@
 //!
 //! The JSON has a `schema` number that changes only when a field is removed or changes
 //! meaning; fields may be added.
+//!
+//! A study stays `active` in the store when its `orch` dies without releasing it
+//! (`kill -9`, a full disk); status looks up the recorded driver process and says when
+//! none is alive, since nothing moves until `orch resume`.
 
 use std::collections::BTreeMap;
 use std::path::Path;
 
 use serde_json::{json, Value};
 
-use crate::store::{FactorRow, JobRow, JobState, Store, StoreError, StoredRound, StudyRow};
+use crate::executor::process;
+use crate::store::{
+    FactorRow, JobRow, JobState, Store, StoreError, StoredRound, StudyRow, StudyState,
+};
 
 /// Version of the JSON printed by `orch status --json`.
 pub const JSON_SCHEMA: u32 = 1;
+
+/// The orch process recorded as driving a study, and whether it still runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Driver {
+    /// Its pid, if one was recorded and not released.
+    pub pid: Option<i64>,
+    /// True when that process (pid and start time) is alive on this machine.
+    pub alive: bool,
+}
+
+impl Driver {
+    /// Looks the study's recorded driver up among this machine's processes.
+    pub fn of(study: &StudyRow) -> Driver {
+        let alive = match (study.driver_pid, study.driver_started) {
+            (Some(pid), Some(started)) => process::is_alive(pid, started),
+            _ => false,
+        };
+        Driver {
+            pid: study.driver_pid,
+            alive,
+        }
+    }
+
+    /// What to tell of a study in `state` driven by this driver: for an active study
+    /// no live process drives (its orch was killed or failed), that it stands still and
+    /// how to continue it; `None` otherwise.
+    pub fn note(self, study: &str, state: StudyState) -> Option<String> {
+        (state == StudyState::Active && !self.alive).then(|| {
+            format!(
+                "no orch process drives study `{study}`{}: its running jobs are not followed and its pending jobs do not start; `orch resume {study}` continues it",
+                self.pid
+                    .map(|pid| format!(" (its driver, pid {pid}, is gone)"))
+                    .unwrap_or_default()
+            )
+        })
+    }
+}
 
 /// Everything `orch status <study>` shows.
 #[derive(Debug, Clone)]
 pub struct StudyDetail {
     /// The study.
     pub study: StudyRow,
+    /// Its recorded driver, looked up when loaded.
+    pub driver: Driver,
     /// Its factors.
     pub factors: Vec<FactorRow>,
     /// Its jobs with their point's values and responses.
@@ -69,6 +115,7 @@ impl StudyDetail {
             .collect();
         let rounds = store.rounds(study.id).await?;
         Ok(StudyDetail {
+            driver: Driver::of(&study),
             study,
             factors,
             jobs,
@@ -106,7 +153,7 @@ impl StudyDetail {
             let job = &detail.job;
             let mut row = vec![
                 job.name.clone(),
-                job.state.clone(),
+                job.state.to_string(),
                 job.attempts.to_string(),
                 job.executor_handle.clone().unwrap_or_else(|| "-".into()),
             ];
@@ -135,8 +182,13 @@ impl StudyDetail {
             .map(|(state, n)| format!("{n} {state}"))
             .collect();
         let names: Vec<String> = self.factors.iter().map(|f| f.name.clone()).collect();
+        let note = self
+            .driver
+            .note(&self.study.name, self.study.state)
+            .map(|note| format!("{note}\n"))
+            .unwrap_or_default();
         format!(
-            "study {} ({}, {}): {} jobs: {}\n{}{}",
+            "study {} ({}, {}): {} jobs: {}\n{note}{}{}",
             self.study.name,
             self.study.solver,
             self.study.state,
@@ -161,7 +213,9 @@ impl StudyDetail {
             "study": {
                 "name": self.study.name,
                 "solver": self.study.solver,
-                "state": self.study.state,
+                "state": self.study.state.as_str(),
+                "driver": {"pid": self.driver.pid, "alive": self.driver.alive},
+                "note": self.driver.note(&self.study.name, self.study.state),
                 "file": self.study.file_path,
                 "project_dir": project_dir.display().to_string(),
                 "counts": counts,
@@ -173,7 +227,7 @@ impl StudyDetail {
             "jobs": self.jobs.iter().map(|d| json!({
                 "name": d.job.name,
                 "id": d.job.id,
-                "state": d.job.state,
+                "state": d.job.state.as_str(),
                 "attempts": d.job.attempts,
                 "handle": d.job.executor_handle,
                 "scheduler_state": d.job.scheduler_state,
@@ -382,8 +436,15 @@ pub async fn overview(
     .map(|s| s.to_string())
     .collect::<Vec<_>>()];
     let mut studies = Vec::new();
+    let mut notes = String::new();
     for (dir, store) in stores {
         for study in store.studies().await? {
+            let driver = Driver::of(&study);
+            let note = driver.note(&study.name, study.state);
+            if let Some(note) = &note {
+                notes.push_str(note);
+                notes.push('\n');
+            }
             let jobs = store.jobs(study.id).await?;
             let counts = crate::driver::counts(&jobs);
             let n = |s: JobState| counts.get(&s).copied().unwrap_or(0);
@@ -391,7 +452,7 @@ pub async fn overview(
             rows.push(vec![
                 study.name.clone(),
                 study.solver.clone(),
-                study.state.clone(),
+                study.state.to_string(),
                 jobs.len().to_string(),
                 waiting.to_string(),
                 n(JobState::Running).to_string(),
@@ -405,7 +466,9 @@ pub async fn overview(
             studies.push(json!({
                 "name": study.name,
                 "solver": study.solver,
-                "state": study.state,
+                "state": study.state.as_str(),
+                "driver": {"pid": driver.pid, "alive": driver.alive},
+                "note": note,
                 "jobs": jobs.len(),
                 "counts": by_state,
                 "project_dir": dir.display().to_string(),
@@ -421,7 +484,7 @@ pub async fn overview(
     if rows.len() == 1 {
         return Ok("no studies yet: submit one with `orch submit STUDY.yaml`\n".into());
     }
-    Ok(table(&rows))
+    Ok(table(&rows) + &notes)
 }
 
 /// Left-aligned columns separated by two spaces.
@@ -447,4 +510,41 @@ fn table(rows: &[Vec<String>]) -> String {
         out.push('\n');
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn only_an_active_study_without_a_live_driver_gets_a_note() {
+        let gone = Driver {
+            pid: Some(4321),
+            alive: false,
+        };
+        assert_eq!(
+            gone.note("short", StudyState::Active).as_deref(),
+            Some("no orch process drives study `short` (its driver, pid 4321, is gone): its running jobs are not followed and its pending jobs do not start; `orch resume short` continues it")
+        );
+        let never = Driver {
+            pid: None,
+            alive: false,
+        };
+        assert!(never
+            .note("short", StudyState::Active)
+            .unwrap()
+            .starts_with("no orch process drives study `short`: "));
+        let alive = Driver {
+            pid: Some(4321),
+            alive: true,
+        };
+        assert_eq!(alive.note("short", StudyState::Active), None);
+        for state in [
+            StudyState::Interrupted,
+            StudyState::Cancelled,
+            StudyState::Finished,
+        ] {
+            assert_eq!(never.note("short", state), None);
+        }
+    }
 }

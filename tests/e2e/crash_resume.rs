@@ -161,3 +161,71 @@ fn cancel_from_another_shell_stops_the_study_and_resume_finishes_it() {
     assert_eq!(output.status.code(), Some(0), "{}", text(&output.stderr));
     assert_eq!(count(&project.status("short"), "succeeded"), 6);
 }
+
+/// Two jobs on a fake LIGGGHTS that sleeps (supervision only).
+const SLEEPY_STUDY: &str = "\
+name: sleepy
+solver: liggghts
+executor: {max_parallel: 2, time_limit: 5min, retries: 0}
+factors:
+  - {name: amplitude, min: 0.0, max: 0.0006}
+fixed: {n_particles: 400, fill_time: 0.1, discharge_time: 0.5, outlet_diameter: 0.020}
+design: {type: full_factorial, levels: 2}
+";
+
+#[test]
+fn status_says_when_no_driver_is_alive_after_sigkill() {
+    let mut project = Project::new();
+    project.fake_program("liggghts", "sleep 60");
+    let file = project.write("sleepy.yaml", SLEEPY_STUDY);
+    let mut orch = project
+        .orch(&["submit", file.to_str().unwrap()])
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let alive = project.wait_for("sleepy", Duration::from_secs(60), |s| {
+        count(s, "running") == 2
+    });
+    orch.kill().unwrap();
+    orch.wait().unwrap();
+
+    let dead = project.status("sleepy");
+    let table = text(&project.run(&["status", "sleepy"]).stdout);
+    let overview = project.run(&["status", "--json"]);
+    let overview: serde_json::Value = serde_json::from_slice(&overview.stdout).unwrap();
+    let overview_table = text(&project.run(&["status"]).stdout);
+    // The fakes still sleep; `orch cancel` kills them.
+    project.run(&["cancel", "sleepy"]);
+
+    assert_eq!(alive["study"]["driver"]["alive"], true, "{alive:#}");
+    assert_eq!(
+        alive["study"]["driver"]["pid"],
+        i64::from(orch.id()),
+        "{alive:#}"
+    );
+    assert!(alive["study"]["note"].is_null(), "{alive:#}");
+
+    let note = format!(
+        "no orch process drives study `sleepy` (its driver, pid {}, is gone): its running jobs are not followed and its pending jobs do not start; `orch resume sleepy` continues it",
+        orch.id()
+    );
+    assert_eq!(dead["study"]["state"], "active", "{dead:#}");
+    assert_eq!(count(&dead, "running"), 2, "{dead:#}");
+    assert_eq!(dead["study"]["driver"]["alive"], false, "{dead:#}");
+    assert_eq!(dead["study"]["note"], note.as_str(), "{dead:#}");
+    assert_eq!(
+        table.lines().nth(1),
+        Some(note.as_str()),
+        "the note follows the study's line:\n{table}"
+    );
+    assert_eq!(
+        overview["studies"][0]["note"],
+        note.as_str(),
+        "{overview:#}"
+    );
+    assert_eq!(overview["studies"][0]["driver"]["alive"], false);
+    assert!(
+        overview_table.lines().any(|line| line == note),
+        "{overview_table}"
+    );
+}

@@ -54,3 +54,51 @@ fn a_refused_resume_retry_failed_leaves_the_failed_jobs_failed() {
     assert_eq!(count(&status, "pending"), 0, "{status:#}");
     assert_eq!(before, after, "the refused resume logged job events");
 }
+
+/// Two jobs on a fake LIGGGHTS that fails at once (supervision only).
+const DAMAGED: &str = "\
+name: damaged
+solver: liggghts
+executor: {max_parallel: 2, time_limit: 5min, retries: 0}
+factors:
+  - {name: amplitude, min: 0.0, max: 0.0006}
+fixed: {n_particles: 400, fill_time: 0.1, discharge_time: 0.5, outlet_diameter: 0.020}
+design: {type: full_factorial, levels: 2}
+";
+
+#[test]
+fn a_job_state_this_orch_does_not_know_is_refused_by_status_and_resume() {
+    let mut project = Project::new();
+    project.fake_program("liggghts", "echo 'ERROR: refused on purpose'; exit 1");
+    let file = project.write("damaged.yaml", DAMAGED);
+    let output = project.run(&["submit", file.to_str().unwrap()]);
+    assert_eq!(output.status.code(), Some(1), "{}", text(&output.stderr));
+    // One job cancelled (a resume would run it again), one with a state from nowhere.
+    project.execute("UPDATE jobs SET state = 'cancelled' WHERE name = 'p000r0'");
+    project.execute("UPDATE jobs SET state = 'runnning' WHERE name = 'p001r0'");
+    let id = &project.query("SELECT id FROM jobs WHERE name = 'p001r0'")[0][0];
+    let expected = format!(
+        "error: jobs row {id} has state `runnning`, which this orch does not know; the database was written by another version or damaged: use the orch that wrote it, or restore orch.db from a backup\n"
+    );
+    let snapshot = || {
+        (
+            project.query("SELECT name, state, attempts FROM jobs ORDER BY id"),
+            project.query("SELECT COUNT(*) FROM job_events"),
+            project.query("SELECT state, driver_pid FROM studies"),
+        )
+    };
+    let before = snapshot();
+
+    for args in [
+        &["status", "damaged", "--json"][..],
+        &["status", "damaged"],
+        &["status"],
+        &["resume", "damaged"],
+    ] {
+        let output = project.run(args);
+        assert_eq!(output.status.code(), Some(3), "orch {args:?}");
+        assert_eq!(text(&output.stderr), expected, "orch {args:?}");
+        assert!(output.stdout.is_empty(), "orch {args:?}");
+    }
+    assert_eq!(snapshot(), before, "a refused command changed the store");
+}

@@ -227,6 +227,28 @@ impl Project {
         }
     }
 
+    /// Runs one statement that writes against the project's store with its CHECK
+    /// constraints off, to make it look damaged or written by another version; no
+    /// `orch` may be running.
+    pub fn execute(&self, sql: &str) {
+        let url = format!("sqlite://{}", self.project_dir().join("orch.db").display());
+        let runtime = tokio::runtime::Builder::new_current_thread()
+            .enable_all()
+            .build()
+            .unwrap();
+        runtime.block_on(async {
+            use sqlx::Connection;
+            let mut connection = sqlx::SqliteConnection::connect(&url).await.unwrap();
+            // The schema's CHECKs would refuse the damage this method exists to cause.
+            sqlx::query("PRAGMA ignore_check_constraints = ON")
+                .execute(&mut connection)
+                .await
+                .unwrap();
+            sqlx::query(sql).execute(&mut connection).await.unwrap();
+            connection.close().await.unwrap();
+        });
+    }
+
     /// Rows of a query against the project's store.
     pub fn query(&self, sql: &str) -> Vec<Vec<String>> {
         let url = format!(

@@ -17,14 +17,15 @@ mod rows;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::str::FromStr;
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 use sqlx::sqlite::{SqliteConnectOptions, SqliteJournalMode, SqlitePoolOptions, SqliteSynchronous};
 use sqlx::{Row, SqlitePool};
 
 pub use rounds::{FitRecord, RoundRecord, StoredFit, StoredRound};
-pub use rows::{FactorRow, JobRow, JobState, PointRow, StudyRow, StudyState, DESIGN_STAGE};
+pub use rows::{
+    FactorRow, JobRow, JobState, PointRow, StudyRow, StudyState, UnknownState, DESIGN_STAGE,
+};
 
 use crate::study::Study;
 
@@ -77,6 +78,10 @@ pub enum StoreError {
         /// The states the transition expected.
         expected: String,
     },
+    /// A state column holds a value this orch does not know (another version wrote
+    /// it, or it was damaged); nothing is guessed.
+    #[error(transparent)]
+    UnknownState(#[from] UnknownState),
     /// Another live orch process drives this study.
     #[error("study `{study}` is being run by another orch process (pid {pid}); wait for it, or stop it with `orch cancel {study}`")]
     Busy {
@@ -88,7 +93,15 @@ pub enum StoreError {
 }
 
 fn query_error(what: &'static str) -> impl FnOnce(sqlx::Error) -> StoreError {
-    move |source| StoreError::Query { what, source }
+    move |source| {
+        // A row whose state is unknown says so itself, not as a database failure.
+        if let sqlx::Error::Decode(cause) = &source {
+            if let Some(unknown) = cause.downcast_ref::<UnknownState>() {
+                return StoreError::UnknownState(unknown.clone());
+            }
+        }
+        StoreError::Query { what, source }
+    }
 }
 
 /// Seconds since the Unix epoch, now.
@@ -309,7 +322,7 @@ impl Store {
         state: StudyState,
     ) -> Result<(), StoreError> {
         sqlx::query("UPDATE studies SET state = ?, updated_at = ? WHERE id = ?")
-            .bind(state.as_str())
+            .bind(state)
             .bind(now_s())
             .bind(study_id)
             .execute(&self.pool)
@@ -387,7 +400,7 @@ impl Store {
     /// Releases the study's driver claim and sets its final state.
     pub async fn release_driver(&self, study_id: i64, state: StudyState) -> Result<(), StoreError> {
         sqlx::query("UPDATE studies SET driver_pid = NULL, driver_started = NULL, state = ?, updated_at = ? WHERE id = ?")
-            .bind(state.as_str())
+            .bind(state)
             .bind(now_s())
             .bind(study_id)
             .execute(&self.pool)
@@ -403,7 +416,7 @@ impl Store {
             .fetch_one(&self.pool)
             .await
             .map_err(query_error("read a study's state"))?;
-        Ok(StudyState::from_str(&state).unwrap_or(StudyState::Active))
+        Ok(rows::parse_state("studies", study_id, state)?)
     }
 
     /// Every job of a study, in point and replicate order.
@@ -542,8 +555,8 @@ impl Store {
                 .collect::<Vec<_>>()
                 .join(" or "),
         };
-        let current = current.ok_or_else(stale)?;
-        if !from.iter().any(|s| s.as_str() == current) {
+        let current: JobState = rows::parse_state("jobs", job_id, current.ok_or_else(stale)?)?;
+        if !from.contains(&current) {
             return Err(stale());
         }
         let assignments = if set.is_empty() {
@@ -552,7 +565,7 @@ impl Store {
             format!("state = ?, {set}")
         };
         let sql = format!("UPDATE jobs SET {assignments} WHERE id = ?");
-        let mut query = sqlx::query(&sql).bind(to.as_str());
+        let mut query = sqlx::query(&sql).bind(to);
         for bind in binds {
             query = match bind {
                 Bind::Int(v) => query.bind(v),
@@ -569,8 +582,8 @@ impl Store {
         sqlx::query("INSERT INTO job_events (job_id, at, from_state, to_state, note) VALUES (?, ?, ?, ?, ?)")
             .bind(job_id)
             .bind(now_s())
-            .bind(&current)
-            .bind(to.as_str())
+            .bind(current)
+            .bind(to)
             .bind(note)
             .execute(&mut *tx)
             .await

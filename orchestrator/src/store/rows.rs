@@ -1,7 +1,81 @@
 //! Rows read from the store, and the state enums stored as text.
+//!
+//! A state is an enum from the moment it leaves SQLite: the rows decode it
+//! ([`sqlx::FromRow`] written out here, so that a bad value can name its row), and the
+//! enums encode and decode themselves as TEXT ([`sqlx::Type`]). A value this orch does
+//! not know is an [`UnknownState`] error, never a default: reading a damaged `running`
+//! as `pending` would launch the job a second time.
 
 use std::fmt;
 use std::str::FromStr;
+
+use sqlx::error::BoxDynError;
+use sqlx::sqlite::{SqliteArgumentValue, SqliteRow, SqliteTypeInfo, SqliteValueRef};
+use sqlx::{Decode, Encode, Row, Sqlite, Type};
+
+/// A state column holds a value this orch does not know.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{table} row {id} has state `{value}`, which this orch does not know; the database was written by another version or damaged: use the orch that wrote it, or restore {} from a backup", super::DATABASE_FILE)]
+pub struct UnknownState {
+    /// The table (`jobs`, `studies`).
+    pub table: &'static str,
+    /// The row's id.
+    pub id: i64,
+    /// The stored text.
+    pub value: String,
+}
+
+/// TEXT encoding and decoding for a state enum with `as_str` and `FromStr`.
+macro_rules! text_state {
+    ($state:ty) => {
+        impl Type<Sqlite> for $state {
+            fn type_info() -> SqliteTypeInfo {
+                <&str as Type<Sqlite>>::type_info()
+            }
+
+            fn compatible(ty: &SqliteTypeInfo) -> bool {
+                <&str as Type<Sqlite>>::compatible(ty)
+            }
+        }
+
+        impl<'q> Encode<'q, Sqlite> for $state {
+            fn encode_by_ref(
+                &self,
+                args: &mut Vec<SqliteArgumentValue<'q>>,
+            ) -> Result<sqlx::encode::IsNull, BoxDynError> {
+                <&str as Encode<'q, Sqlite>>::encode_by_ref(&self.as_str(), args)
+            }
+        }
+
+        impl<'r> Decode<'r, Sqlite> for $state {
+            fn decode(value: SqliteValueRef<'r>) -> Result<Self, BoxDynError> {
+                let text = <&str as Decode<'r, Sqlite>>::decode(value)?;
+                Ok(text.parse::<$state>()?)
+            }
+        }
+    };
+}
+
+text_state!(JobState);
+text_state!(StudyState);
+
+/// Reads the `state` column of a row of `table` as `S`, naming the row when it holds a
+/// value this orch does not know.
+fn state_of<S: FromStr>(row: &SqliteRow, table: &'static str, id: i64) -> sqlx::Result<S> {
+    let value: String = row.try_get("state")?;
+    value
+        .parse()
+        .map_err(|_| sqlx::Error::Decode(Box::new(UnknownState { table, id, value })))
+}
+
+/// Parses a state read on its own (`SELECT state …`), naming its row when unknown.
+pub(crate) fn parse_state<S: FromStr>(
+    table: &'static str,
+    id: i64,
+    value: String,
+) -> Result<S, UnknownState> {
+    value.parse().map_err(|_| UnknownState { table, id, value })
+}
 
 /// The life of a job: pending → rendered → (submitted →) running → succeeded | failed |
 /// cancelled. A job that must run again goes back to pending.
@@ -113,8 +187,14 @@ impl FromStr for StudyState {
     }
 }
 
+impl fmt::Display for StudyState {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
 /// A row of `studies`.
-#[derive(Debug, Clone, PartialEq, sqlx::FromRow)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct StudyRow {
     /// Id.
     pub id: i64,
@@ -132,8 +212,8 @@ pub struct StudyRow {
     pub template_name: String,
     /// Template text.
     pub template_text: String,
-    /// State as text; see [`StudyRow::state`].
-    pub state: String,
+    /// State.
+    pub state: StudyState,
     /// pid of the orch process driving it, if any.
     pub driver_pid: Option<i64>,
     /// Start time of that process (clock ticks since boot), to tell pid reuse apart.
@@ -147,12 +227,33 @@ pub struct StudyRow {
 impl StudyRow {
     /// The state.
     pub fn state(&self) -> StudyState {
-        self.state.parse().unwrap_or(StudyState::Active)
+        self.state
+    }
+}
+
+impl<'r> sqlx::FromRow<'r, SqliteRow> for StudyRow {
+    fn from_row(row: &'r SqliteRow) -> sqlx::Result<Self> {
+        let id = row.try_get("id")?;
+        Ok(StudyRow {
+            id,
+            name: row.try_get("name")?,
+            solver: row.try_get("solver")?,
+            file_path: row.try_get("file_path")?,
+            file_text: row.try_get("file_text")?,
+            file_sha256: row.try_get("file_sha256")?,
+            template_name: row.try_get("template_name")?,
+            template_text: row.try_get("template_text")?,
+            state: state_of(row, "studies", id)?,
+            driver_pid: row.try_get("driver_pid")?,
+            driver_started: row.try_get("driver_started")?,
+            created_at: row.try_get("created_at")?,
+            updated_at: row.try_get("updated_at")?,
+        })
     }
 }
 
 /// A row of `jobs`.
-#[derive(Debug, Clone, PartialEq, sqlx::FromRow)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct JobRow {
     /// Id.
     pub id: i64,
@@ -166,8 +267,8 @@ pub struct JobRow {
     pub name: String,
     /// Solver seed.
     pub seed: i64,
-    /// State as text; see [`JobRow::state`].
-    pub state: String,
+    /// State.
+    pub state: JobState,
     /// Attempts started.
     pub attempts: i64,
     /// The executor's handle of the current attempt (local: `pid:start-ticks`;
@@ -204,7 +305,32 @@ impl JobRow {
 
     /// The state.
     pub fn state(&self) -> JobState {
-        self.state.parse().unwrap_or(JobState::Pending)
+        self.state
+    }
+}
+
+impl<'r> sqlx::FromRow<'r, SqliteRow> for JobRow {
+    fn from_row(row: &'r SqliteRow) -> sqlx::Result<Self> {
+        let id = row.try_get("id")?;
+        Ok(JobRow {
+            id,
+            study_id: row.try_get("study_id")?,
+            point_id: row.try_get("point_id")?,
+            replicate: row.try_get("replicate")?,
+            name: row.try_get("name")?,
+            seed: row.try_get("seed")?,
+            state: state_of(row, "jobs", id)?,
+            attempts: row.try_get("attempts")?,
+            executor_handle: row.try_get("executor_handle")?,
+            run_dir: row.try_get("run_dir")?,
+            started_at: row.try_get("started_at")?,
+            finished_at: row.try_get("finished_at")?,
+            exit_code: row.try_get("exit_code")?,
+            error: row.try_get("error")?,
+            scheduler_state: row.try_get("scheduler_state")?,
+            stage: row.try_get("stage")?,
+            after_job_id: row.try_get("after_job_id")?,
+        })
     }
 }
 

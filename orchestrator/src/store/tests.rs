@@ -127,3 +127,97 @@ async fn only_one_live_driver_may_claim_a_study() {
         .await
         .unwrap();
 }
+
+/// Runs `sql` with the schema's CHECK constraints off, as a damaged database or one
+/// written by another version would look.
+async fn damage(store: &Store, sql: &str, id: i64) {
+    let mut connection = store.pool.acquire().await.unwrap();
+    sqlx::query("PRAGMA ignore_check_constraints = ON")
+        .execute(&mut *connection)
+        .await
+        .unwrap();
+    sqlx::query(sql)
+        .bind(id)
+        .execute(&mut *connection)
+        .await
+        .unwrap();
+    sqlx::query("PRAGMA ignore_check_constraints = OFF")
+        .execute(&mut *connection)
+        .await
+        .unwrap();
+}
+
+#[tokio::test]
+async fn an_unknown_job_state_is_an_error_naming_the_row_never_a_default() {
+    let (_dir, store, id) = store_with_study().await;
+    let job = store.jobs(id).await.unwrap()[1].id;
+    damage(
+        &store,
+        "UPDATE jobs SET state = 'runnning' WHERE id = ?",
+        job,
+    )
+    .await;
+    let expected = format!(
+        "jobs row {job} has state `runnning`, which this orch does not know; the database was written by another version or damaged: use the orch that wrote it, or restore orch.db from a backup"
+    );
+    let listed = store.jobs(id).await.unwrap_err();
+    assert!(
+        matches!(&listed, StoreError::UnknownState(u) if u.table == "jobs" && u.id == job && u.value == "runnning"),
+        "{listed:?}"
+    );
+    assert_eq!(listed.to_string(), expected);
+    assert_eq!(store.job(job).await.unwrap_err().to_string(), expected);
+    // A transition reads the state too, and refuses rather than calling it stale.
+    let moved = store.mark_cancelled(job, "no").await.unwrap_err();
+    assert_eq!(moved.to_string(), expected);
+    let events: i64 = sqlx::query_scalar("SELECT COUNT(*) FROM job_events")
+        .fetch_one(&store.pool)
+        .await
+        .unwrap();
+    assert_eq!(events, 0);
+}
+
+#[tokio::test]
+async fn an_unknown_study_state_is_an_error_naming_the_row_never_active() {
+    let (_dir, store, id) = store_with_study().await;
+    damage(
+        &store,
+        "UPDATE studies SET state = 'paused' WHERE id = ?",
+        id,
+    )
+    .await;
+    let expected = format!(
+        "studies row {id} has state `paused`, which this orch does not know; the database was written by another version or damaged: use the orch that wrote it, or restore orch.db from a backup"
+    );
+    assert_eq!(
+        store.study_state(id).await.unwrap_err().to_string(),
+        expected
+    );
+    assert_eq!(
+        store.study_by_name("small").await.unwrap_err().to_string(),
+        expected
+    );
+    assert_eq!(store.studies().await.unwrap_err().to_string(), expected);
+}
+
+#[tokio::test]
+async fn states_are_written_as_the_text_they_are_read_from() {
+    let (_dir, store, id) = store_with_study().await;
+    store
+        .set_study_state(id, StudyState::Interrupted)
+        .await
+        .unwrap();
+    let job = store.jobs(id).await.unwrap()[0].id;
+    store.mark_cancelled(job, "test").await.unwrap();
+    let (study, job): (String, String) = sqlx::query_as(
+        "SELECT s.state, j.state FROM studies s JOIN jobs j ON j.study_id = s.id WHERE j.id = ?",
+    )
+    .bind(job)
+    .fetch_one(&store.pool)
+    .await
+    .unwrap();
+    assert_eq!((study.as_str(), job.as_str()), ("interrupted", "cancelled"));
+    for state in JobState::ALL {
+        assert_eq!(state.as_str().parse::<JobState>(), Ok(state));
+    }
+}

@@ -49,10 +49,15 @@ impl Checker<'_> {
             )
         })?;
         let Some(solver_name) = &file.solver else {
-            return Err(self.error(
+            // The key is absent, so the error points at the top of the file.
+            let mut error = self.error(
                 "solver",
                 format!("expected `solver:`, one of: {}", solver_names().join(", ")),
-            ));
+            );
+            error
+                .location
+                .get_or_insert(Location { line: 1, column: 1 });
+            return Err(error);
         };
         let solver = solver_for(solver_name).ok_or_else(|| {
             self.error(

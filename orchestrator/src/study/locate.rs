@@ -1,5 +1,7 @@
 //! Where a field is in a YAML file: maps a field path (`factors[1].max`) to its line
-//! and column, so that errors found after deserialisation can point at the text.
+//! and column, so that errors found after deserialisation can point at the text. The
+//! same walk finds a key given twice in one mapping, which YAML forbids and serde would
+//! let pass into a map (the last value winning).
 
 use std::collections::HashMap;
 
@@ -15,25 +17,58 @@ pub struct Location {
     pub column: usize,
 }
 
-/// The location of every value in `text`, by field path; empty if `text` is not YAML.
-pub fn value_locations(text: &str) -> HashMap<String, Location> {
+/// What a walk of a YAML text found.
+#[derive(Debug, Default)]
+pub struct Located {
+    /// The location of every value, by field path; empty if the text is not YAML.
+    pub values: HashMap<String, Location>,
+    /// The first key given a second time in its mapping: its field path and where the
+    /// second one is, with the line of the first.
+    pub duplicate: Option<(String, Location, usize)>,
+    /// Where a second document starts, if one does.
+    pub second_document: Option<Location>,
+}
+
+/// Walks `text` (as far as it is YAML) for the locations of its values and a
+/// duplicate key.
+pub fn locate(text: &str) -> Located {
     let mut walker = Walker::default();
     let mut parser = Parser::new_from_str(text);
-    // A syntax error has been reported by serde already; keep what was found.
-    let _ = parser.load(&mut walker, false);
-    walker.found
+    // A syntax error is reported by serde; keep what was found before it.
+    let _ = parser.load(&mut walker, true);
+    Located {
+        values: walker.found,
+        duplicate: walker.duplicate,
+        second_document: walker.documents.get(1).copied(),
+    }
+}
+
+/// The location of every value in `text`, by field path; empty if `text` is not YAML.
+#[cfg(test)]
+pub fn value_locations(text: &str) -> HashMap<String, Location> {
+    locate(text).values
 }
 
 #[derive(Debug)]
 enum Frame {
-    Mapping { key: Option<String>, path: String },
-    Sequence { index: usize, path: String },
+    Mapping {
+        key: Option<String>,
+        path: String,
+        /// Keys seen so far, with the line of each.
+        keys: HashMap<String, usize>,
+    },
+    Sequence {
+        index: usize,
+        path: String,
+    },
 }
 
 #[derive(Debug, Default)]
 struct Walker {
     stack: Vec<Frame>,
     found: HashMap<String, Location>,
+    duplicate: Option<(String, Location, usize)>,
+    documents: Vec<Location>,
 }
 
 impl Walker {
@@ -45,6 +80,7 @@ impl Walker {
             Some(Frame::Mapping {
                 key: Some(key),
                 path,
+                ..
             }) => Some(join(path, key)),
             Some(Frame::Sequence { index, path }) => Some(format!("{path}[{index}]")),
         }
@@ -79,7 +115,15 @@ impl MarkedEventReceiver for Walker {
         match event {
             Event::Scalar(value, ..) => match self.next_value_path() {
                 None => {
-                    if let Some(Frame::Mapping { key, .. }) = self.stack.last_mut() {
+                    if let Some(Frame::Mapping { key, path, keys }) = self.stack.last_mut() {
+                        let here = location(mark);
+                        if let Some(first) = keys.get(&value) {
+                            if self.duplicate.is_none() {
+                                self.duplicate = Some((join(path, &value), here, *first));
+                            }
+                        } else {
+                            keys.insert(value.clone(), here.line);
+                        }
                         *key = Some(value);
                     }
                 }
@@ -93,7 +137,11 @@ impl MarkedEventReceiver for Walker {
                 self.found.insert(path.clone(), location(mark));
                 self.stack
                     .push(if matches!(event, Event::MappingStart(..)) {
-                        Frame::Mapping { key: None, path }
+                        Frame::Mapping {
+                            key: None,
+                            path,
+                            keys: HashMap::new(),
+                        }
                     } else {
                         Frame::Sequence { index: 0, path }
                     });
@@ -102,6 +150,19 @@ impl MarkedEventReceiver for Walker {
                 self.stack.pop();
                 self.value_done();
             }
+            Event::DocumentStart => self.documents.push(location(mark)),
+            // An alias is a whole value (or key) in one event.
+            Event::Alias(_) => match self.next_value_path() {
+                Some(path) => {
+                    self.found.insert(path, location(mark));
+                    self.value_done();
+                }
+                None => {
+                    if let Some(Frame::Mapping { key, .. }) = self.stack.last_mut() {
+                        *key = Some("*alias".to_string());
+                    }
+                }
+            },
             _ => {}
         }
     }

@@ -266,14 +266,41 @@ impl Study {
     /// Validates a study from its text. `path` names the file in errors and anchors
     /// the files it names (`template:`, a custom `case:`'s templates and files);
     /// `stored` replaces reading them from disk (on resume, what was stored at
-    /// submission is used).
+    /// submission is used). A leading byte order mark is not part of the YAML; a key
+    /// given twice in one mapping is refused (serde would keep the last).
     pub fn from_text(path: &Path, text: &str, stored: Option<Stored>) -> Result<Study, StudyError> {
+        let yaml = text.strip_prefix('\u{feff}').unwrap_or(text);
+        let located = locate::locate(yaml);
         let checker = Checker {
             path,
-            locations: locate::value_locations(text),
+            locations: located.values,
             stored,
         };
-        let file = checker.parse(text)?;
+        if let Some(location) = located.second_document {
+            return Err(StudyError {
+                path: path.to_path_buf(),
+                location: Some(location),
+                field: "(file)".into(),
+                message: "a second YAML document starts here; a study file holds one study: remove it, or put it in a file of its own".into(),
+            });
+        }
+        if let Some((field, location, first_line)) = located.duplicate {
+            // A complex key (`? …`) has no field path of its own.
+            let field = if field.is_empty() {
+                "(file)".to_string()
+            } else {
+                field
+            };
+            return Err(StudyError {
+                path: path.to_path_buf(),
+                location: Some(location),
+                field,
+                message: format!(
+                    "given twice in one mapping (first on line {first_line}); keep one"
+                ),
+            });
+        }
+        let file = checker.parse(yaml)?;
         checker.validate(file, text)
     }
 
@@ -583,10 +610,13 @@ impl Checker<'_> {
                     message = rest.to_string();
                 }
             }
-            let field = if field == "." {
+            // A syntax error inside a value ends in serde_path_to_error's unknown
+            // segment `?`; an empty key at the top has an empty path.
+            let field = field.trim_end_matches(".?");
+            let field = if matches!(field, "." | "" | "?") {
                 "(file)".to_string()
             } else {
-                field
+                field.to_string()
             };
             StudyError {
                 path: self.path.to_path_buf(),

@@ -119,7 +119,14 @@ pub fn read_dump<R: BufRead>(
             continue;
         }
         lines.expect_item(&line, "ITEM: TIMESTEP")?;
-        snapshot.timestep = lines.parse_single("a time step number")?;
+        let timestep = lines.parse_single("a time step number")?;
+        if summary.snapshots > 0 && timestep <= snapshot.timestep {
+            return Err(lines.malformed(format!(
+                "time step {timestep} follows time step {}: a dump's snapshots go forward in time (two runs written into one file?)",
+                snapshot.timestep
+            )));
+        }
+        snapshot.timestep = timestep;
         let header = lines.required("ITEM: NUMBER OF ATOMS")?;
         lines.expect_item(&header, "ITEM: NUMBER OF ATOMS")?;
         let atoms: usize = lines.parse_single("a number of atoms")?;
@@ -261,6 +268,16 @@ ITEM: ATOMS id type radius mass x y z vx vy vz
             Ok(())
         })?;
         Ok((summary, seen))
+    }
+
+    #[test]
+    fn a_time_step_that_goes_back_is_malformed() {
+        let twice = format!("{TWO_SNAPSHOTS}{TWO_SNAPSHOTS}");
+        let error = read(&twice).unwrap_err().to_string();
+        assert!(
+            error.contains("follows time step") && error.contains("go forward in time"),
+            "{error}"
+        );
     }
 
     #[test]

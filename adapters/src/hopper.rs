@@ -134,9 +134,26 @@ impl Equipment for Hopper {
         }
     }
 
-    fn results(&self, _case: &Case, observations: &Observations) -> RunResults {
+    fn results(&self, case: &Case, observations: &Observations) -> RunResults {
         let crossings = &observations.crossings;
         let responses = DischargeResponses::compute(crossings, &ResponseOptions::default());
+        let named = responses.named();
+        let crossed = crossings.len();
+        let inserted = case.get("n_particles").round();
+        let missing = RESPONSES
+            .iter()
+            .filter(|spec| !named.iter().any(|(name, _)| *name == spec.name))
+            .map(|spec| {
+                let why = if spec.name == "discharge_rate" {
+                    format!(
+                        "no steady discharge: {crossed} of {inserted} particles crossed the sensor plane (is the outlet jammed, or the run too short?)"
+                    )
+                } else {
+                    format!("the {crossed} particles that crossed the sensor plane cannot define it (one of the sizes missing?)")
+                };
+                (spec.name.to_string(), why)
+            })
+            .collect();
         let mut series = vec![
             Series {
                 name: "mass_flow_rate".to_string(),
@@ -149,8 +166,9 @@ impl Equipment for Hopper {
         ];
         series.extend(observations.series.iter().cloned());
         RunResults {
-            responses: responses.named(),
+            responses: named,
             series,
+            missing,
         }
     }
 }

@@ -108,6 +108,34 @@ pub struct RunResults {
     pub responses: Vec<(String, f64)>,
     /// Time series.
     pub series: Vec<Series>,
+    /// Responses the run could not define, with why (`discharge_rate`: "no steady
+    /// discharge: 6 of 300 particles crossed the sensor plane").
+    pub missing: Vec<(String, String)>,
+}
+
+/// Fraction of the mass a solver counted past its sink that the crossings of the sensor
+/// plane above it must hold: every particle that left crossed the plane first, so less
+/// means the crossings were cut short (a sensor that samples may miss a few).
+pub const CROSSINGS_COVER_SINK: f64 = 0.98;
+
+/// Checks the crossings read from `path` against the mass the solver itself counted past
+/// its sink, kg: a file cut short (a truncated write, a full disk) holds less.
+pub(crate) fn crossings_cover_sink(
+    crossings: &[orch_granular::Crossing],
+    sink_mass_kg: f64,
+    path: &Path,
+) -> Result<(), ParseError> {
+    let crossed: f64 = crossings.iter().map(|c| c.mass_kg).sum();
+    if crossed < CROSSINGS_COVER_SINK * sink_mass_kg {
+        return Err(ParseError::Unusable {
+            path: path.to_path_buf(),
+            message: format!(
+                "its {} crossings hold {crossed:.6e} kg, but the solver counted {sink_mass_kg:.6e} kg past its sink below the sensor plane; the file is cut short or damaged",
+                crossings.len()
+            ),
+        });
+    }
+    Ok(())
 }
 
 /// Opens a file of a run directory for reading; the error names the file.

@@ -505,7 +505,17 @@ impl<E: Executor> Driver<'_, E> {
         .unwrap_or_else(|e| panic!("the parser of {} panicked: {e}", job.name));
         match parsed {
             Ok(results) => {
-                let results = job_results(results);
+                let missing = self.missing_responses(job, &results);
+                let mut results = job_results(results);
+                if let Some(reason) = missing {
+                    if self.study.fail_on_missing_response {
+                        self.report(job, &format!("failed: {reason}"));
+                        self.store.mark_failed(job.id, Some(0), &reason).await?;
+                        return Ok(());
+                    }
+                    self.report(job, &reason);
+                    results.note = Some(reason);
+                }
                 self.report_success(job, &results);
                 self.store.mark_succeeded(job.id, 0, &results).await?;
             }
@@ -569,6 +579,49 @@ impl<E: Executor> Driver<'_, E> {
         );
     }
 
+    /// Why a run that succeeded lacks responses the study asks for (its objective's and
+    /// `responses:` that this kind of job produces), or `None` when it has them all.
+    fn missing_responses(&self, job: &JobRow, results: &RunResults) -> Option<String> {
+        let produced: Vec<&str> = match job.stage_kind().and_then(|k| self.study.stage(k)) {
+            Some(stage) => stage
+                .stage
+                .responses()
+                .iter()
+                .map(|r| r.name.as_ref())
+                .collect(),
+            None => self
+                .study
+                .simulation
+                .responses()
+                .iter()
+                .map(|r| r.name.as_ref())
+                .collect(),
+        };
+        let has = |name: &str| results.responses.iter().any(|(n, _)| n == name);
+        let missing: Vec<String> = crate::rounds::fitted_responses(self.study)
+            .into_iter()
+            .filter(|name| produced.contains(&name.as_str()) && !has(name))
+            .collect();
+        if missing.is_empty() {
+            return None;
+        }
+        let why: Vec<String> = missing
+            .iter()
+            .map(|name| {
+                let reason = results.missing.iter().find(|(n, _)| n == name);
+                reason.map_or_else(
+                    || format!("{name}: the run did not produce it"),
+                    |(_, why)| format!("{name}: {why}"),
+                )
+            })
+            .collect();
+        Some(format!(
+            "succeeded without {}: {}",
+            missing.join(", "),
+            why.join("; ")
+        ))
+    }
+
     fn report_success(&self, job: &JobRow, results: &JobResults) {
         let shown: Vec<String> = results
             .responses
@@ -590,6 +643,7 @@ impl<E: Executor> Driver<'_, E> {
 /// What the store keeps of a run's results.
 fn job_results(results: RunResults) -> JobResults {
     JobResults {
+        note: None,
         responses: results.responses,
         series: results
             .series

@@ -404,6 +404,7 @@ rounds: 2
             let results = JobResults {
                 responses: responses(&points[&job.point_id]),
                 series: vec![],
+                note: None,
             };
             store.mark_succeeded(job.id, 0, &results).await.unwrap();
         }

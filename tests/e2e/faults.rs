@@ -160,3 +160,58 @@ fn an_attempt_lost_without_an_exit_status_spends_the_retry_budget() {
         assert!(error.contains("without an exit status"), "{error}");
     }
 }
+
+/// A jammed hopper: 4 mm spheres only, through a 4.5 mm outlet.
+const JAMMED: &str = "\
+name: jammed
+solver: native
+executor: {max_parallel: 2, retries: 0}
+factors:
+  - {name: amplitude, min: 0.0, max: 0.0002}
+fixed: {n_particles: 100, fine_diameter: 0.004, outlet_diameter: 0.0045, fill_time: 0.1, discharge_time: 0.2}
+design: {type: full_factorial, levels: 2}
+responses: [discharge_rate]
+";
+
+/// A run that ends without the study's response is not a silent success: it is
+/// recorded with why (default), or failed when the study says so.
+#[test]
+fn a_jammed_hopper_succeeds_without_its_discharge_rate_and_says_why() {
+    let project = Project::new();
+    let file = project.write("jammed.yaml", JAMMED);
+    let output = project.run(&["submit", file.to_str().unwrap()]);
+    assert_eq!(output.status.code(), Some(0), "{}", text(&output.stderr));
+    let status = project.status("jammed");
+    for job in status["jobs"].as_array().unwrap() {
+        assert_eq!(job["state"], "succeeded", "{job:#}");
+        assert!(job["responses"].get("discharge_rate").is_none(), "{job:#}");
+        let note = job["error"].as_str().unwrap_or_default();
+        assert!(
+            note.starts_with(
+                "succeeded without discharge_rate: discharge_rate: no steady discharge: "
+            ) && note.contains(" of 100 particles crossed the sensor plane"),
+            "{note}"
+        );
+    }
+    let table = text(&project.run(&["status", "jammed"]).stdout);
+    assert!(
+        table.contains("succeeded without discharge_rate"),
+        "{table}"
+    );
+
+    let failing = JAMMED.replace("name: jammed", "name: jammed-fails") + "missing_response: fail\n";
+    let file = project.write("jammed-fails.yaml", &failing);
+    let output = project.run(&["submit", file.to_str().unwrap()]);
+    assert_eq!(output.status.code(), Some(1), "{}", text(&output.stderr));
+    let status = project.status("jammed-fails");
+    for job in status["jobs"].as_array().unwrap() {
+        assert_eq!(job["state"], "failed", "{job:#}");
+        assert!(
+            job["error"]
+                .as_str()
+                .unwrap()
+                .contains("no steady discharge"),
+            "{job:#}"
+        );
+    }
+}

@@ -22,7 +22,14 @@ pub struct LogSummary {
     pub kinetic_energy: Vec<(u64, f64)>,
     /// `ERROR:` lines, verbatim.
     pub errors: Vec<String>,
+    /// The last mass the sink had removed ([`SINK_MASS_COLUMN`]), kg, when the log
+    /// has that column.
+    pub sink_mass_kg: Option<f64>,
 }
+
+/// The thermo column of the mass the templates' sink (`fix outflow … massflow/mesh …
+/// delete_atoms yes`) has removed, kg.
+pub const SINK_MASS_COLUMN: &str = "outflow[1]";
 
 /// Reads a LIGGGHTS log. `path` names the file in errors.
 pub fn read_log<R: BufRead>(reader: R, path: &Path) -> Result<LogSummary, ParseError> {
@@ -65,6 +72,9 @@ pub fn read_log<R: BufRead>(reader: R, path: &Path) -> Result<LogSummary, ParseE
             previous_row = Some((step, atoms));
             if let Some(ke) = value("KinEng") {
                 summary.kinetic_energy.push((step, ke));
+            }
+            if let Some(mass) = value(SINK_MASS_COLUMN) {
+                summary.sink_mass_kg = Some(mass);
             }
         }
     }

@@ -19,7 +19,9 @@ pub use log::{read_log, LogSummary};
 
 use crate::dump::read_dump;
 use crate::solver::{one_core_command, SolverTemplate};
-use crate::{open_in_run_dir, Case, DemSolver, Observations, ParseError, SensorPlane};
+use crate::{
+    crossings_cover_sink, open_in_run_dir, Case, DemSolver, Observations, ParseError, SensorPlane,
+};
 
 /// The LIGGGHTS solver.
 pub static SOLVER: DemSolver = DemSolver {
@@ -70,13 +72,17 @@ fn parse(case: &Case, sensor: &SensorPlane, run_dir: &Path) -> Result<Observatio
         }
         Ok(())
     })?;
+    let crossings = detector.finish();
+    if let Some(sink_mass) = log.sink_mass_kg {
+        crossings_cover_sink(&crossings, sink_mass, &dump_path)?;
+    }
     let kinetic_energy = log
         .kinetic_energy
         .iter()
         .map(|&(step, ke)| (step as f64 * dt, ke))
         .collect();
     Ok(Observations {
-        crossings: detector.finish(),
+        crossings,
         solver_loop_time_s: Some(log.loop_time_s),
         particle_steps: Some(log.particle_steps),
         series: vec![crate::Series {

@@ -97,3 +97,38 @@ fn missing_output_names_the_file() {
         "{error}"
     );
 }
+
+/// The sink's own count in the log (`outflow[1]`, kg) against the crossings found in
+/// the sensor dump: a dump cut short holds less.
+#[test]
+fn a_sensor_dump_that_holds_less_than_the_sink_removed_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir_all(dir.path().join("post")).unwrap();
+    let snapshot = |step: u64, z: f64| {
+        format!(
+            "ITEM: TIMESTEP\n{step}\nITEM: NUMBER OF ATOMS\n1\nITEM: BOX BOUNDS mm mm mm\n0 1\n0 1\n0 1\nITEM: ATOMS id type radius mass x y z vx vy vz \n1 2 0.001 1e-5 0.003 0.004 {z} 0 0 -1 \n"
+        )
+    };
+    std::fs::write(
+        dir.path().join(SENSOR_DUMP),
+        snapshot(100, -0.0045) + &snapshot(150, -0.0055),
+    )
+    .unwrap();
+    let log = |removed: &str| {
+        format!(
+            "    Step    Atoms         KinEng     outflow[1]     outflow[2]            CPU \n     100        3              0              0              0              0 \n     150        1              0         {removed}              2              0 \nLoop time of 1.5 on 1 procs for 150 steps with 1 atoms\n"
+        )
+    };
+    // One crossing of 1e-5 kg; the sink removed 1e-5 kg: consistent.
+    std::fs::write(dir.path().join(LOG_FILE), log("1e-5")).unwrap();
+    observe(&SOLVER, &case_with(&[]), dir.path()).unwrap();
+    // The sink removed 2e-5 kg, twice what crossed: the dump is cut short.
+    std::fs::write(dir.path().join(LOG_FILE), log("2e-5")).unwrap();
+    let error = observe(&SOLVER, &case_with(&[]), dir.path())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.contains("sensor.liggghts: its 1 crossings hold 1.000000e-5 kg, but the solver counted 2.000000e-5 kg"),
+        "{error}"
+    );
+}

@@ -19,8 +19,8 @@ pub use log::{read_log, NativeLog, THERMO_HEADER};
 
 use crate::solver::{one_core_command, SolverTemplate};
 use crate::{
-    numbered_lines, open_in_run_dir, Case, CommandSpec, DemSolver, Observations, ParseError,
-    SensorPlane, Series,
+    crossings_cover_sink, numbered_lines, open_in_run_dir, Case, CommandSpec, DemSolver,
+    Observations, ParseError, SensorPlane, Series,
 };
 
 /// orch's native kernel.
@@ -75,6 +75,9 @@ fn parse(_case: &Case, _sensor: &SensorPlane, run_dir: &Path) -> Result<Observat
     let log = read_log(reader, &log_path)?;
     let (reader, crossings_path) = open(CROSSINGS_FILE)?;
     let crossings = read_crossings(reader, &crossings_path)?;
+    if let Some(&(_, sink_mass)) = log.discharged_mass.last() {
+        crossings_cover_sink(&crossings, sink_mass, &crossings_path)?;
+    }
     Ok(Observations {
         crossings,
         solver_loop_time_s: Some(log.loop_time_s),
@@ -86,13 +89,17 @@ fn parse(_case: &Case, _sensor: &SensorPlane, run_dir: &Path) -> Result<Observat
     })
 }
 
-/// Reads the kernel's crossings CSV, in time order.
+/// Reads the kernel's crossings CSV (YADE's script writes the same), in time order.
 pub fn read_crossings<R: BufRead>(reader: R, path: &Path) -> Result<Vec<Crossing>, ParseError> {
     let malformed = |line: usize, message: String| ParseError::malformed(path, line, message);
     let mut crossings = Vec::new();
+    // A header and no rows is a run in which nothing crossed (a jammed outlet): the
+    // responses that need crossings are then missing, with why.
+    let mut saw_header = false;
     for numbered in numbered_lines(reader, path) {
         let (number, line) = numbered?;
         if number == 1 {
+            saw_header = true;
             if line.trim() != CROSSINGS_HEADER {
                 return Err(malformed(
                     1,
@@ -114,6 +121,13 @@ pub fn read_crossings<R: BufRead>(reader: R, path: &Path) -> Result<Vec<Crossing
                     format!("expected 11 finite numbers ({CROSSINGS_HEADER}), found `{line}`"),
                 )
             })?;
+        let (time, radius, mass) = (numbers[0], numbers[3], numbers[4]);
+        if !(time >= 0.0 && radius > 0.0 && mass > 0.0) {
+            return Err(malformed(
+                number,
+                format!("a crossing needs a time ≥ 0 and a positive radius and mass, found time {time} s, radius {radius} m, mass {mass} kg"),
+            ));
+        }
         crossings.push(Crossing {
             time_s: numbers[0],
             id: numbers[1] as u64,
@@ -124,10 +138,10 @@ pub fn read_crossings<R: BufRead>(reader: R, path: &Path) -> Result<Vec<Crossing
             velocity_m_per_s: [numbers[8], numbers[9], numbers[10]],
         });
     }
-    if crossings.is_empty() {
+    if !saw_header {
         return Err(malformed(
             1,
-            "no particle crossed the sensor plane: the hopper did not discharge (is the outlet blocked or the run too short?)".to_string(),
+            format!("the file is empty; the solver writes the header `{CROSSINGS_HEADER}` first, so it did not get that far"),
         ));
     }
     crossings.sort_by(|a, b| a.time_s.total_cmp(&b.time_s));

@@ -132,9 +132,18 @@ fn malformed_crossings_name_the_line() {
         error.to_string().contains("c.csv:1: expected the header"),
         "{error}"
     );
-    let empty = format!("{CROSSINGS_HEADER}\n");
-    let error = read_crossings(Cursor::new(empty), Path::new("c.csv")).unwrap_err();
-    assert!(error.to_string().contains("did not discharge"), "{error}");
+    // A header and no rows: nothing crossed (a jammed outlet); the responses that need
+    // crossings are missing with why (see hopper::results), not a parse error.
+    let nothing = format!("{CROSSINGS_HEADER}\n");
+    assert!(read_crossings(Cursor::new(nothing), Path::new("c.csv"))
+        .unwrap()
+        .is_empty());
+    // An empty file: the solver never got as far as its header.
+    let error = read_crossings(Cursor::new(""), Path::new("c.csv")).unwrap_err();
+    assert!(
+        error.to_string().contains("c.csv:1: the file is empty"),
+        "{error}"
+    );
 }
 
 /// The kernel's `dump custom` snapshots read with the LIGGGHTS dump reader: one
@@ -182,4 +191,64 @@ fn kernel_dumps_read_with_the_liggghts_dump_reader() {
     assert_eq!(seen[0].id, 4);
     assert_eq!(seen[0].particle_type, 2);
     assert_eq!(seen[0].velocity_m_per_s, [0.0, 0.0, -1.25]);
+}
+
+/// A real 150-particle run of the kernel (`tests/fixtures/native/`).
+fn fixtures() -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/fixtures/native")
+}
+
+#[test]
+fn a_real_run_parses_and_its_crossings_cover_the_mass_the_kernel_removed() {
+    let observations = hopper::observe(&SOLVER, &case_with(&[]), &fixtures()).unwrap();
+    let crossed: f64 = observations.crossings.iter().map(|c| c.mass_kg).sum();
+    let log = read_log(
+        std::fs::read(fixtures().join(LOG_FILE)).unwrap().as_slice(),
+        Path::new(LOG_FILE),
+    )
+    .unwrap();
+    let removed = log.discharged_mass.last().unwrap().1;
+    assert!(
+        crossed >= removed * 0.999999,
+        "{crossed} kg crossed, {removed} kg removed"
+    );
+}
+
+/// A crossings file cut short at any byte (here: half its size, which may end in a
+/// number that still parses) is refused against the kernel's own total.
+#[test]
+fn crossings_cut_short_are_refused_against_the_kernel_s_total() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir_all(dir.path().join("post")).unwrap();
+    std::fs::copy(fixtures().join(LOG_FILE), dir.path().join(LOG_FILE)).unwrap();
+    let csv = std::fs::read_to_string(fixtures().join(CROSSINGS_FILE)).unwrap();
+    // Cut at the last line end before half the size, so every row left parses.
+    let half = csv[..csv.len() / 2].rfind('\n').unwrap() + 1;
+    std::fs::write(dir.path().join(CROSSINGS_FILE), &csv[..half]).unwrap();
+    let error = hopper::observe(&SOLVER, &case_with(&[]), dir.path())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.contains("post/crossings.csv: its ")
+            && error.contains("the file is cut short or damaged"),
+        "{error}"
+    );
+}
+
+#[test]
+fn crossings_with_no_mass_or_a_negative_time_are_malformed() {
+    let row = |time: &str, mass: &str| {
+        format!("{CROSSINGS_HEADER}\n{time},1,1,0.002,{mass},0.001,0,-0.005,0,0,-1\n")
+    };
+    for (time, mass, what) in [
+        ("0.1", "0", "mass 0 kg"),
+        ("0.1", "-1e-5", "mass -0.00001 kg"),
+        ("-0.1", "1e-5", "time -0.1 s"),
+    ] {
+        let error = read_crossings(Cursor::new(row(time, mass)), Path::new("c.csv"))
+            .unwrap_err()
+            .to_string();
+        assert!(error.starts_with("c.csv:2: a crossing needs"), "{error}");
+        assert!(error.contains(what), "{what}: {error}");
+    }
 }

@@ -416,6 +416,7 @@ pub fn parse(run_dir: &Path) -> Result<RunResults, ParseError> {
                 points: ring,
             },
         ],
+        missing: Vec::new(),
     })
 }
 

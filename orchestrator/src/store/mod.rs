@@ -119,6 +119,9 @@ pub struct JobResults {
     pub responses: Vec<(String, f64)>,
     /// Named time series of `(t s, value)`.
     pub series: Vec<(String, Vec<(f64, f64)>)>,
+    /// Why a response the study asks for is missing from a run that succeeded (kept
+    /// in the job's `error`, shown by status).
+    pub note: Option<String>,
 }
 
 /// The open store of one project directory.
@@ -696,8 +699,12 @@ impl Store {
             job_id,
             &[JobState::Submitted, JobState::Running],
             JobState::Succeeded,
-            "exit_code = ?, finished_at = ?, error = NULL",
-            vec![Bind::Int(exit_code as i64), Bind::Real(now_s())],
+            "exit_code = ?, finished_at = ?, error = ?",
+            vec![
+                Bind::Int(exit_code as i64),
+                Bind::Real(now_s()),
+                results.note.clone().map_or(Bind::Null, Bind::Text),
+            ],
             None,
         )
         .await?;

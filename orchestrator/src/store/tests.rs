@@ -60,6 +60,7 @@ async fn a_job_moves_through_its_states_and_keeps_its_results() {
     let results = JobResults {
         responses: vec![("discharge_rate".into(), 0.15)],
         series: vec![("mass_flow_rate".into(), vec![(0.1, 0.2), (0.2, 0.3)])],
+        note: None,
     };
     store.mark_succeeded(job, 0, &results).await.unwrap();
     let row = store.job(job).await.unwrap();

@@ -71,9 +71,23 @@ pub struct StudyFile {
     /// stream drags.
     #[serde(default)]
     pub cfd: Option<StageFile>,
+    /// What a run that succeeded but lacks a response the study asks for counts as:
+    /// `record` (default: succeeded, with why in status) or `fail`.
+    #[serde(default)]
+    pub missing_response: Option<MissingResponseFile>,
     /// A user's own deck (`equipment: custom`): templates, files, command, responses.
     #[serde(default)]
     pub case: Option<CaseFile>,
+}
+
+/// `missing_response:` of a study.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MissingResponseFile {
+    /// The job succeeded; status shows which response is missing and why.
+    Record,
+    /// The job fails with why.
+    Fail,
 }
 
 /// A fixed value: a number (SI units) or, for a user's own deck, a word or text.

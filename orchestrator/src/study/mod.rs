@@ -185,6 +185,9 @@ pub struct Study {
     pub metamodel: MetamodelConfig,
     /// Uncertain factors, if any.
     pub uncertainty: Option<UncertaintyConfig>,
+    /// True when a run without a response the study asks for fails (`missing_response:
+    /// fail`); else it succeeds with why in status.
+    pub fail_on_missing_response: bool,
     /// Stages chained after every design job, in the order of [`orch_adapters::STAGES`].
     pub stages: Vec<StageConfig>,
     /// The file's text, kept in the store.
@@ -937,6 +940,8 @@ impl Checker<'_> {
             metamodel,
             uncertainty,
             stages,
+            fail_on_missing_response: file.missing_response
+                == Some(file::MissingResponseFile::Fail),
             file_text: text.to_string(),
             inputs,
             file_sha256,

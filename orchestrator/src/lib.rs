@@ -10,6 +10,7 @@ pub mod cli;
 pub mod driver;
 pub mod executor;
 pub mod exit_codes;
+pub mod export;
 pub mod output;
 pub mod project;
 pub mod rounds;

@@ -85,6 +85,15 @@ pub enum Command {
         #[arg(short, long, value_name = "FILE")]
         output: Option<PathBuf>,
     },
+    /// One self-contained HTML report of a study: design, surfaces, predicted against
+    /// observed, Pareto charts, optimum, trust regions, runs and series.
+    Report {
+        /// The study name.
+        study: String,
+        /// Where to write it (default: `<project>/reports/<study>.html`).
+        #[arg(short, long, value_name = "FILE")]
+        output: Option<PathBuf>,
+    },
     /// Stop a study: running jobs are killed, pending ones will not start.
     Cancel {
         /// The study name.
@@ -163,6 +172,7 @@ pub async fn run(args: Args) -> anyhow::Result<i32> {
             series,
             output,
         } => export(project_dir, &study, format, series, output.as_deref()).await,
+        Command::Report { study, output } => report(project_dir, &study, output).await,
         Command::Cancel { study } => cancel(project_dir, &study).await,
         Command::Resume {
             study,
@@ -691,6 +701,29 @@ async fn export(
         }
         None => out!("{text}")?,
     }
+    Ok(exit_codes::SUCCESS)
+}
+
+/// `orch report`: writes the HTML report and prints its path.
+async fn report(
+    project_dir: Option<&Path>,
+    name: &str,
+    output: Option<PathBuf>,
+) -> anyhow::Result<i32> {
+    let (store, row) = find(project_dir, name).await?;
+    let study = stored_study(&row).ok();
+    let html = crate::report::render(&store, &row, study.as_ref()).await?;
+    let path = output.unwrap_or_else(|| {
+        store
+            .path()
+            .parent()
+            .unwrap_or(Path::new("."))
+            .join("reports")
+            .join(format!("{name}.html"))
+    });
+    write_output(&path, html.as_bytes())?;
+    let path = std::path::absolute(&path).unwrap_or(path);
+    outln!("{}", path.display())?;
     Ok(exit_codes::SUCCESS)
 }
 

@@ -1,10 +1,11 @@
 //! Results people can look at: `orch export` read back by Python's csv module, and
 //! `orch report` rendered by headless Chromium, on small native studies.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::Command;
+use std::time::Instant;
 
-use crate::support::{solver_lock, text, Project};
+use crate::support::{require_program, solver_lock, text, Project};
 
 /// Two factors, a face-centred CCD of 300 particles each (about 1 s per run), an
 /// objective and Monte Carlo over one factor: every part of a report has something
@@ -124,5 +125,108 @@ fn export_writes_one_csv_row_per_run_with_units_that_python_reads_and_series_in_
     assert!(
         series[1..].iter().any(|r| r[2] == "kg/s"),
         "a unit per series"
+    );
+}
+
+/// `chromium --headless` with the flags that keep it off the network and quiet.
+fn headless(user_data: &Path) -> Command {
+    let mut command = Command::new("chromium");
+    command.args([
+        "--headless",
+        "--no-sandbox",
+        "--disable-gpu",
+        "--disable-quic",
+        "--no-first-run",
+        "--disable-background-networking",
+        "--disable-component-update",
+        "--disable-sync",
+    ]);
+    command.arg(format!("--user-data-dir={}", user_data.display()));
+    command
+}
+
+#[test]
+fn the_report_of_a_small_study_renders_in_headless_chromium_with_its_figures() {
+    if !require_program("Chromium", "chromium", "chromium") {
+        return;
+    }
+    let _lock = solver_lock();
+    let project = small_project();
+    let output = project.run(&["report", "small"]);
+    assert_eq!(output.status.code(), Some(0), "{}", text(&output.stderr));
+    let path = PathBuf::from(text(&output.stdout).trim());
+    assert_eq!(path, project.project_dir().join("reports/small.html"));
+    let html = std::fs::read_to_string(&path).unwrap();
+    eprintln!("report: {} ({} bytes)", path.display(), html.len());
+    // Self-contained: nothing is fetched from anywhere (SVG's xmlns is a name, not a fetch).
+    for external in [
+        "<script", "<link", "@import", "url(", "src=", "href=", "<img",
+    ] {
+        assert!(!html.contains(external), "the report refers to {external}");
+    }
+
+    let user_data = project.dir.path().join("chromium-profile");
+    let started = Instant::now();
+    let dom = headless(&user_data)
+        .arg("--dump-dom")
+        .arg(format!("file://{}", path.display()))
+        .output()
+        .unwrap();
+    eprintln!(
+        "chromium --dump-dom: {:.2} s",
+        started.elapsed().as_secs_f64()
+    );
+    assert!(dom.status.success(), "{}", text(&dom.stderr));
+    let dom = text(&dom.stdout);
+    let svgs = dom.matches("<svg").count();
+    eprintln!("rendered DOM: {} bytes, {svgs} <svg> elements", dom.len());
+    // Per round: a surface, predicted vs observed and a Pareto chart per response
+    // (2 headline responses), the trust-region box; a chart per stored series.
+    let series = project.query("SELECT COUNT(DISTINCT name) FROM series")[0][0]
+        .parse::<usize>()
+        .unwrap();
+    assert!(series >= 1);
+    assert_eq!(
+        svgs,
+        2 * 3 + 1 + series,
+        "<svg> elements in the rendered DOM"
+    );
+    for title in [
+        "<title>small: report</title>",
+        "Definitions",
+        "Round 0",
+        "Design",
+        "Response surface",
+        "Predicted against observed",
+        "Pareto chart",
+        "Optimum",
+        "Monte Carlo",
+        "Trust region",
+        "Runs",
+    ] {
+        assert!(dom.contains(title), "the rendered report lacks {title}");
+    }
+    assert!(dom.contains("σ_cross"), "the definitions name σ_cross");
+
+    let screenshot = project.dir.path().join("report.png");
+    let shot = headless(&user_data)
+        .arg(format!("--screenshot={}", screenshot.display()))
+        .arg("--window-size=1280,4000")
+        .arg(format!("file://{}", path.display()))
+        .output()
+        .unwrap();
+    assert!(shot.status.success(), "{}", text(&shot.stderr));
+    let png = std::fs::read(&screenshot).unwrap();
+    assert!(png.starts_with(b"\x89PNG"), "not a PNG");
+    assert!(
+        png.len() > 20_000,
+        "a nearly empty screenshot: {} bytes",
+        png.len()
+    );
+    // Kept for people to look at: the temporary project is kept too.
+    let kept = project.dir.keep();
+    eprintln!(
+        "screenshot of the report: {}",
+        kept.join("report.png").display()
     );
 }

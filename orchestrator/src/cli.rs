@@ -500,11 +500,8 @@ async fn drive_rounds(
                 errln!("orch: round {} analysed; round {next} starts", next - 1);
                 for line in status::rounds_summary(
                     &store.rounds(study_id).await?,
-                    &study
-                        .factors
-                        .iter()
-                        .map(|f| f.name.clone())
-                        .collect::<Vec<_>>(),
+                    &store.factors(study_id).await?,
+                    &crate::surfaces::design_runs(store, study_id).await?,
                 )
                 .lines()
                 {
@@ -670,7 +667,15 @@ async fn show_fits(
             round.map(|n| format!(" {n}")).unwrap_or_default()
         )));
     };
-    out!("{}", status::fits_report(chosen))?;
+    let names: Vec<String> = store
+        .factors(row.id)
+        .await?
+        .into_iter()
+        .map(|f| f.name)
+        .collect();
+    let runs = crate::surfaces::design_runs(&store, row.id).await?;
+    let round_runs = runs.get(&chosen.round).map(Vec::as_slice).unwrap_or(&[]);
+    out!("{}", status::fits_report(chosen, &names, round_runs))?;
     Ok(exit_codes::SUCCESS)
 }
 

@@ -10,6 +10,9 @@ use crate::surfaces::{self, Run};
 /// Below this R²(σ_cross) a surface does not predict new runs.
 pub const MIN_R2_CROSS: f64 = 0.5;
 
+/// How a warning that an optimum is no answer begins.
+pub const NOT_AN_ANSWER: &str = "this optimum is not an answer";
+
 /// Leverage at or above this counts as 1 (as in `orch_metamodel::Fit`).
 const SATURATED_LEVERAGE: f64 = 1.0 - 1e-10;
 
@@ -153,7 +156,7 @@ pub fn optimum_warnings(round: &StoredRound, factors: &[FactorRow], runs: &[Run]
         let verdict = judge(fit, &y, None);
         if !verdict.trusted() {
             out.push(format!(
-                "this optimum is not an answer: {}",
+                "{NOT_AN_ANSWER}: {}",
                 verdict.warning(&fit.response).unwrap_or_default()
             ));
         }

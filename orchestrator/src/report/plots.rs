@@ -134,7 +134,7 @@ pub fn heatmap(
     let (z0, z1) = extent(cells.iter().map(|c| c.2));
     let scale = |v: f64| if z1 > z0 { (v - z0) / (z1 - z0) } else { 0.5 };
     svg(WIDE, 440, |root| {
-        let (plot, bar) = root.split_horizontally(WIDE - 110);
+        let (plot, bar) = root.split_horizontally(WIDE - 130);
         let mut chart = ChartBuilder::on(&plot)
             .caption(title, (FONT, 16))
             .margin(10)
@@ -170,11 +170,11 @@ pub fn heatmap(
         }
         // The colour bar.
         let mut legend = ChartBuilder::on(&bar)
-            .margin_top(40)
+            .margin_top(36)
             .margin_bottom(50)
-            .margin_right(60)
+            .margin_left(20)
             .y_label_area_size(0)
-            .right_y_label_area_size(50)
+            .right_y_label_area_size(80)
             .build_cartesian_2d(0.0..1.0, padded(z0, z1).start..padded(z0, z1).end)?
             .set_secondary_coord(0.0..1.0, z0..z1.max(z0 + f64::EPSILON));
         legend
@@ -375,29 +375,23 @@ pub fn boxes(x_label: &str, y_label: &str, limits: [(f64, f64); 2], rounds: &[Ro
         )))?;
         for (k, (name, b, optimum)) in rounds.iter().enumerate() {
             let colour = PALETTE[k % PALETTE.len()];
-            chart
-                .draw_series(std::iter::once(Rectangle::new(
-                    [(b[0].0, b[1].0), (b[0].1, b[1].1)],
-                    colour.mix(0.15).filled(),
-                )))?
-                .label(name.as_str())
-                .legend(move |(x, y)| {
-                    Rectangle::new([(x, y - 5), (x + 12, y + 5)], colour.filled())
-                });
+            chart.draw_series(std::iter::once(Rectangle::new(
+                [(b[0].0, b[1].0), (b[0].1, b[1].1)],
+                colour.mix(0.15).filled(),
+            )))?;
             chart.draw_series(std::iter::once(Rectangle::new(
                 [(b[0].0, b[1].0), (b[0].1, b[1].1)],
                 colour.stroke_width(2),
             )))?;
+            // The round's name inside its box's upper left corner: no legend to hide a cross.
+            chart.draw_series(std::iter::once(
+                EmptyElement::at((b[0].0, b[1].1))
+                    + Text::new(name.clone(), (4, 4), (FONT, 11).into_font().color(&colour)),
+            ))?;
             if let Some(o) = optimum {
-                chart.draw_series(std::iter::once(Cross::new(*o, 7, colour.stroke_width(3))))?;
+                chart.draw_series(std::iter::once(Cross::new(*o, 7, RED.stroke_width(3))))?;
             }
         }
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.8))
-            .border_style(GREY)
-            .label_font((FONT, 11))
-            .draw()?;
         Ok(())
     })
 }

@@ -99,8 +99,8 @@ table{border-collapse:collapse;font-size:0.85em;margin:0.5em 0}\
 th,td{border:1px solid #ccc;padding:2px 6px;text-align:right;white-space:nowrap}\
 th{background:#eef3f8}td:first-child,th:first-child{text-align:left}\
 .scroll{overflow-x:auto}\
-figure{display:inline-block;margin:0.5em 1em 0.5em 0;vertical-align:top}\
-figcaption{font-size:0.8em;color:#555;max-width:640px}\
+figure{display:inline-block;width:min-content;margin:0.5em 1em 0.5em 0;vertical-align:top}\
+figcaption{font-size:0.8em;color:#555}\
 .warn{background:#fff3cd;border-left:4px solid #e0a800;padding:4px 8px}\
 .bad{background:#f8d7da;border-left:4px solid #c82333;padding:4px 8px}\
 .note{color:#555;font-size:0.9em}\

@@ -254,6 +254,13 @@ fn surface_section(data: &Data<'_>, round: &StoredRound, fit: &StoredFit, runs: 
     }
     let observed = surfaces::observed(runs, &fit.response);
     let verdict = crate::verdict::judge(fit, &observed.y, None);
+    if verdict.is_constant() {
+        // No R², σ_cross, surface or effects: there is nothing to fit.
+        if let Some(warning) = verdict.warning(&fit.response) {
+            let _ = writeln!(out, "<p class=\"bad\">{}</p>", escape(&warning));
+        }
+        return out;
+    }
     let fmt =
         |v: Option<f64>, d: usize| v.map(|v| format!("{v:.d$}")).unwrap_or_else(|| "–".into());
     let _ = writeln!(
@@ -303,8 +310,8 @@ fn surface_section(data: &Data<'_>, round: &StoredRound, fit: &StoredFit, runs: 
         None => out.push_str("<p class=\"note\">Predicted against observed: no leave-one-out predictions, because a run has leverage 1 (see Definitions).</p>\n"),
     }
     let effects = surface.effects();
-    if effects.is_empty() || verdict.is_constant() {
-        out.push_str("<p class=\"note\">Pareto chart: no standardised effects (as many runs as terms, or a constant response).</p>\n");
+    if effects.is_empty() {
+        out.push_str("<p class=\"note\">Pareto chart: no standardised effects (as many runs as terms).</p>\n");
     } else {
         out.push_str(&figure(
             &plots::pareto(&format!("Pareto chart: {}", fit.response), &effects),
@@ -415,16 +422,25 @@ fn optimum_section(data: &Data<'_>, round: &StoredRound) -> String {
         return out;
     };
     let unit = data.unit(response);
-    for warning in crate::verdict::optimum_warnings(
+    let warnings = crate::verdict::optimum_warnings(
         round,
         &data.factors,
         &data.runs.get(&round.round).cloned().unwrap_or_default(),
-    ) {
-        let _ = writeln!(out, "<p class=\"bad\">{}</p>", escape(&warning));
+    );
+    for warning in &warnings {
+        let _ = writeln!(out, "<p class=\"bad\">{}</p>", escape(warning));
     }
+    let answer = !warnings
+        .iter()
+        .any(|w| w.starts_with(crate::verdict::NOT_AN_ANSWER));
     let _ = writeln!(
         out,
-        "<p>{} {}: predicted {}</p>",
+        "<p>{}{} {}: predicted {}</p>",
+        if answer {
+            ""
+        } else {
+            "Best point of the surface, not an answer: "
+        },
         escape(goal),
         escape(response),
         with_unit(*value, &unit)

@@ -585,6 +585,95 @@ async fn runs_section(store: &Store, data: &Data<'_>) -> Result<String, StoreErr
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::store::JobResults;
+    use std::path::Path;
+
+    /// Two factors, an objective, Monte Carlo over one factor; one response constant.
+    const STUDY: &str = "\
+name: known
+solver: liggghts
+factors:
+  - {name: outlet_diameter, min: 0.020, max: 0.028, unit: m}
+  - {name: amplitude, min: 0.0, max: 0.0008, unit: m}
+design: {type: central_composite, alpha: face_centred}
+responses: [discharge_rate, fine_fraction_outer_2]
+objective: {response: discharge_rate, goal: maximise}
+uncertainty:
+  samples: 1000
+  seed: 1
+  parameters: [{name: amplitude, distribution: normal, mean: 0.0004, std: 0.00004}]
+";
+
+    /// A known quadratic rate with a little scatter, a constant fraction, and a series.
+    fn results(coded: &[f64], k: usize) -> JobResults {
+        let noise = [0.01, -0.02, 0.015, -0.005, 0.0, 0.02, -0.01, 0.005, -0.015][k % 9];
+        JobResults {
+            responses: vec![
+                (
+                    "discharge_rate".into(),
+                    1.0 - (coded[0] - 0.5).powi(2) - coded[1].powi(2) + noise,
+                ),
+                ("fine_fraction_outer_2".into(), 1.0),
+            ],
+            series: vec![(
+                "mass_flow_rate".into(),
+                (0..5).map(|i| (0.1 * i as f64, 0.2 * i as f64)).collect(),
+            )],
+        }
+    }
+
+    #[tokio::test]
+    async fn a_report_of_a_known_round_has_every_figure_warning_and_unit() {
+        let dir = tempfile::tempdir().unwrap();
+        let store = Store::open(dir.path()).await.unwrap();
+        let study = Study::from_text(Path::new("known.yaml"), STUDY, None).unwrap();
+        let id = store
+            .insert_study(&study, Path::new("known.yaml"), &dir.path().join("runs"))
+            .await
+            .unwrap();
+        let points: HashMap<i64, Vec<f64>> = store
+            .points(id)
+            .await
+            .unwrap()
+            .into_iter()
+            .map(|p| (p.id, p.coded))
+            .collect();
+        for (k, job) in store.jobs(id).await.unwrap().iter().enumerate() {
+            store.mark_rendered(job.id).await.unwrap();
+            store.mark_running(job.id, "1:1", 0.0).await.unwrap();
+            let results = results(&points[&job.point_id], k);
+            store.mark_succeeded(job.id, 0, &results).await.unwrap();
+        }
+        crate::rounds::advance(&store, id, &study, &dir.path().join("runs/known"))
+            .await
+            .unwrap();
+        let row = store.study_by_name("known").await.unwrap().unwrap();
+        let html = render(&store, &row, Some(&study)).await.unwrap();
+
+        // A heat map, predicted against observed and a Pareto chart for the rate; none
+        // for the constant fraction; the trust region; one series chart.
+        assert_eq!(html.matches("<svg").count(), 3 + 1 + 1, "{html}");
+        for text in [
+            "<h2>Definitions</h2>",
+            "Response surface: discharge_rate [kg/s]",
+            "Predicted against observed: discharge_rate",
+            "Pareto chart: discharge_rate",
+            "fine_fraction_outer_2 does not vary: it is 1 in every run",
+            "Optimum of round 0",
+            "Monte Carlo at the optimum of round 0",
+            "outlet_diameter [m]",
+            "Series: mass_flow_rate",
+            "mass_flow_rate [kg/s]",
+        ] {
+            assert!(html.contains(text), "the report lacks {text}");
+        }
+        assert!(!html.contains("Response surface: fine_fraction_outer_2 along"));
+        assert!(!html.contains("<script"), "no scripts");
+        // The optimum of a well-predicted surface inside the box is an answer.
+        assert!(!html.contains(crate::verdict::NOT_AN_ANSWER), "{html}");
+        assert!(!html.contains("Best point of the surface"), "{html}");
+        assert!(html.contains("<p>maximise discharge_rate: predicted"), "{html}");
+    }
 
     #[test]
     fn long_series_are_thinned_keeping_both_ends() {

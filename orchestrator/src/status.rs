@@ -293,7 +293,7 @@ pub fn rounds_summary(
                         .unwrap_or_else(|| "-".into()),
                     fit.r2_cross
                         .map(|v| format!("{v:.4}"))
-                        .unwrap_or_else(|| "-".into()),
+                        .unwrap_or_else(|| "–".into()),
                     fit.runs,
                     fit.basis,
                     fit.order,
@@ -385,7 +385,9 @@ pub fn fits_report(round: &StoredRound, factors: &[String], runs: &[Run]) -> Str
                 .unwrap_or_else(|| "–".into()),
             fmt(fit.r2, 4),
             fmt(fit.adjusted_r2, 4),
-            fmt(fit.r2_cross, 4),
+            fit.r2_cross
+                .map(|v| format!("{v:.4}"))
+                .unwrap_or_else(|| "–".into()),
             fit.press
                 .map(|v| format!("{v:.4e}"))
                 .unwrap_or_else(|| "-".into())

@@ -81,7 +81,7 @@ fn no_sigma_cross_reason(fit: &StoredFit, leverages: Option<&[f64]>) -> String {
     let terms = fit.terms.len() as i64;
     if terms > 0 && fit.runs <= terms {
         return format!(
-            "{} runs for {terms} terms: every run has leverage 1 and none can be left out; add runs (e.g. center_points: 3) or lower the order",
+            "{} runs for {terms} terms: every run has leverage 1 and none can be left out; add runs (more levels or points, replicates, center_points: 3) or lower the order",
             fit.runs
         );
     }

@@ -672,7 +672,10 @@ uncertainty:
         // The optimum of a well-predicted surface inside the box is an answer.
         assert!(!html.contains(crate::verdict::NOT_AN_ANSWER), "{html}");
         assert!(!html.contains("Best point of the surface"), "{html}");
-        assert!(html.contains("<p>maximise discharge_rate: predicted"), "{html}");
+        assert!(
+            html.contains("<p>maximise discharge_rate: predicted"),
+            "{html}"
+        );
     }
 
     #[test]

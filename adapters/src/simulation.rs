@@ -44,6 +44,9 @@ pub trait Simulation: Send + Sync + std::fmt::Debug {
     /// Every scalar response a run produces.
     fn responses(&self) -> &[ResponseSpec];
 
+    /// Every series a run stores (besides the solver's own).
+    fn series(&self) -> &[ResponseSpec];
+
     /// The responses shown and fitted when a study names none.
     fn headline_responses(&self) -> Vec<String>;
 
@@ -146,6 +149,10 @@ impl Simulation for EquipmentOnSolver {
 
     fn responses(&self) -> &[ResponseSpec] {
         self.equipment.responses()
+    }
+
+    fn series(&self) -> &[ResponseSpec] {
+        self.equipment.series()
     }
 
     fn headline_responses(&self) -> Vec<String> {

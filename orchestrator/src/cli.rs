@@ -74,6 +74,30 @@ pub enum Command {
         #[arg(long)]
         round: Option<i64>,
     },
+    /// A study's runs as a table: one row per job with its round, point, factors and
+    /// responses (units in the headers); or, with --series, every time series.
+    Export {
+        /// The study name.
+        study: String,
+        /// CSV (RFC 4180) or a JSON array of objects.
+        #[arg(long, value_enum, default_value = "csv")]
+        format: crate::export::Format,
+        /// The time series in long form (job, series, unit, t, value) instead of the runs.
+        #[arg(long)]
+        series: bool,
+        /// Write here instead of standard output.
+        #[arg(short, long, value_name = "FILE")]
+        output: Option<PathBuf>,
+    },
+    /// One self-contained HTML report of a study: design, surfaces, predicted against
+    /// observed, Pareto charts, optimum, trust regions, runs and series.
+    Report {
+        /// The study name.
+        study: String,
+        /// Where to write it (default: `<project>/reports/<study>.html`).
+        #[arg(short, long, value_name = "FILE")]
+        output: Option<PathBuf>,
+    },
     /// Stop a study: running jobs are killed, pending ones will not start.
     Cancel {
         /// The study name.
@@ -153,6 +177,13 @@ pub async fn run(args: Args) -> anyhow::Result<i32> {
         Command::Status { study, json } => show_status(project_dir, study.as_deref(), json).await,
         Command::Logs { job, tail } => logs(project_dir, &job, tail).await,
         Command::Fit { study, round } => show_fits(project_dir, &study, round).await,
+        Command::Export {
+            study,
+            format,
+            series,
+            output,
+        } => export(project_dir, &study, format, series, output.as_deref()).await,
+        Command::Report { study, output } => report(project_dir, &study, output).await,
         Command::Cancel { study } => cancel(project_dir, &study).await,
         Command::Resume {
             study,
@@ -494,11 +525,8 @@ async fn drive_rounds(
                 errln!("orch: round {} analysed; round {next} starts", next - 1);
                 for line in status::rounds_summary(
                     &store.rounds(study_id).await?,
-                    &study
-                        .factors
-                        .iter()
-                        .map(|f| f.name.clone())
-                        .collect::<Vec<_>>(),
+                    &store.factors(study_id).await?,
+                    &crate::surfaces::design_runs(store, study_id).await?,
                 )
                 .lines()
                 {
@@ -696,8 +724,87 @@ async fn show_fits(
             round.map(|n| format!(" {n}")).unwrap_or_default()
         )));
     };
-    out!("{}", status::fits_report(chosen))?;
+    let names: Vec<String> = store
+        .factors(row.id)
+        .await?
+        .into_iter()
+        .map(|f| f.name)
+        .collect();
+    let runs = crate::surfaces::design_runs(&store, row.id).await?;
+    let round_runs = runs.get(&chosen.round).map(Vec::as_slice).unwrap_or(&[]);
+    out!("{}", status::fits_report(chosen, &names, round_runs))?;
     Ok(exit_codes::SUCCESS)
+}
+
+/// `orch export`: the runs (or series) table to a file or standard output.
+async fn export(
+    project_dir: Option<&Path>,
+    name: &str,
+    format: crate::export::Format,
+    series: bool,
+    output: Option<&Path>,
+) -> anyhow::Result<i32> {
+    let (store, row) = find(project_dir, name).await?;
+    let study = stored_study(&store, &row).await?.ok();
+    let table = if series {
+        crate::export::series_table(&store, &row, study.as_ref()).await?
+    } else {
+        crate::export::runs_table(&store, &row, study.as_ref()).await?
+    };
+    let text = table.render(format);
+    match output {
+        Some(path) => {
+            write_output(path, text.as_bytes())?;
+            errln!(
+                "orch: {} rows written to {}",
+                table.rows.len(),
+                path.display()
+            );
+        }
+        None => out!("{text}")?,
+    }
+    Ok(exit_codes::SUCCESS)
+}
+
+/// `orch report`: writes the HTML report and prints its path.
+async fn report(
+    project_dir: Option<&Path>,
+    name: &str,
+    output: Option<PathBuf>,
+) -> anyhow::Result<i32> {
+    let (store, row) = find(project_dir, name).await?;
+    let study = stored_study(&store, &row).await?.ok();
+    let html = crate::report::render(&store, &row, study.as_ref()).await?;
+    let path = output.unwrap_or_else(|| {
+        store
+            .path()
+            .parent()
+            .unwrap_or(Path::new("."))
+            .join("reports")
+            .join(format!("{name}.html"))
+    });
+    write_output(&path, html.as_bytes())?;
+    let path = std::path::absolute(&path).unwrap_or(path);
+    outln!("{}", path.display())?;
+    Ok(exit_codes::SUCCESS)
+}
+
+/// Writes `bytes` to `path`, creating its folder; a failure says what to do.
+fn write_output(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| {
+            format!(
+                "cannot create the folder {}; choose another path with -o",
+                dir.display()
+            )
+        })?;
+    }
+    std::fs::write(path, bytes).with_context(|| {
+        format!(
+            "cannot write {}; check its folder's permissions or choose another path with -o",
+            path.display()
+        )
+    })
 }
 
 async fn cancel(project_dir: Option<&Path>, name: &str) -> anyhow::Result<i32> {

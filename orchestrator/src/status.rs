@@ -14,8 +14,10 @@ use serde_json::{json, Value};
 
 use crate::executor::process;
 use crate::store::{
-    FactorRow, JobRow, JobState, Store, StoreError, StoredRound, StudyRow, StudyState,
+    FactorRow, JobRow, JobState, Store, StoreError, StoredFit, StoredRound, StudyRow, StudyState,
 };
+use crate::surfaces::{self, Run};
+use crate::verdict::{self, Verdict};
 
 /// Version of the JSON printed by `orch status --json`.
 pub const JSON_SCHEMA: u32 = 1;
@@ -70,6 +72,8 @@ pub struct StudyDetail {
     pub jobs: Vec<JobDetail>,
     /// Its rounds with fits, optimum, spread and decision.
     pub rounds: Vec<StoredRound>,
+    /// Succeeded design runs by round, which the rounds' fits used.
+    pub runs: BTreeMap<i64, Vec<Run>>,
 }
 
 /// One job with what belongs to it.
@@ -114,12 +118,14 @@ impl StudyDetail {
             })
             .collect();
         let rounds = store.rounds(study.id).await?;
+        let runs = surfaces::design_runs(store, study.id).await?;
         Ok(StudyDetail {
             driver: Driver::of(&study),
             study,
             factors,
             jobs,
             rounds,
+            runs,
         })
     }
 
@@ -181,7 +187,6 @@ impl StudyDetail {
             .iter()
             .map(|(state, n)| format!("{n} {state}"))
             .collect();
-        let names: Vec<String> = self.factors.iter().map(|f| f.name.clone()).collect();
         let note = self
             .driver
             .note(&self.study.name, self.study.state)
@@ -195,7 +200,7 @@ impl StudyDetail {
             self.jobs.len(),
             summary.join(", "),
             table(&rows),
-            rounds_summary(&self.rounds, &names)
+            rounds_summary(&self.rounds, &self.factors, &self.runs)
         )
     }
 
@@ -288,10 +293,26 @@ fn round_json(round: &StoredRound, names: &[&str]) -> Value {
     })
 }
 
-/// Lines on each analysed round: fit quality, optimum, 95 % bounds, decision.
-pub fn rounds_summary(rounds: &[StoredRound], names: &[String]) -> String {
+/// The verdict on one stored fit of a round, from the round's runs: constant, does not
+/// predict, σ_cross missing (and why), or predicts.
+pub fn verdict_of(fit: &StoredFit, factors: &[String], runs: &[Run]) -> Verdict {
+    let observed = surfaces::observed(runs, &fit.response);
+    let leverages = surfaces::refit(fit, factors, &observed).map(|f| f.leverages);
+    verdict::judge(fit, &observed.y, leverages.as_deref())
+}
+
+/// Lines on each analysed round: fit quality, optimum, 95 % bounds, decision, and
+/// warnings where a surface does not predict, a response is constant, σ_cross is
+/// missing or the optimum lies on a limit of the study file.
+pub fn rounds_summary(
+    rounds: &[StoredRound],
+    factors: &[FactorRow],
+    runs: &BTreeMap<i64, Vec<Run>>,
+) -> String {
+    let names: Vec<String> = factors.iter().map(|f| f.name.clone()).collect();
     let mut out = String::new();
     for round in rounds {
+        let round_runs: &[Run] = runs.get(&round.round).map(Vec::as_slice).unwrap_or(&[]);
         let boxed: Vec<String> = names
             .iter()
             .zip(&round.ranges)
@@ -303,24 +324,43 @@ pub fn rounds_summary(rounds: &[StoredRound], names: &[String]) -> String {
             boxed.join(", ")
         ));
         for fit in &round.fits {
-            match &fit.error {
-                Some(error) => out.push_str(&format!("  {}: no surface: {error}\n", fit.response)),
-                None => out.push_str(&format!(
-                    "  {}: σ_cross {} %, R² {}, R²(σ_cross) {} ({} runs, {} order {})\n",
+            if let Some(error) = &fit.error {
+                out.push_str(&format!("  {}: no surface: {error}\n", fit.response));
+                continue;
+            }
+            let verdict = verdict_of(fit, &names, round_runs);
+            match &verdict {
+                Verdict::Constant { value } => out.push_str(&format!(
+                    "  {}: constant: {value} in every run; nothing to fit\n",
+                    fit.response
+                )),
+                _ => out.push_str(&format!(
+                    "  {}: σ_cross {} %, R² {}, R²(σ_cross) {} ({} runs, {} order {}){}\n",
                     fit.response,
                     fit.sigma_cross
                         .map(|v| format!("{v:.1}"))
-                        .unwrap_or_else(|| "-".into()),
+                        .unwrap_or_else(|| "–".into()),
                     fit.r2
                         .map(|v| format!("{v:.4}"))
                         .unwrap_or_else(|| "-".into()),
                     fit.r2_cross
                         .map(|v| format!("{v:.4}"))
-                        .unwrap_or_else(|| "-".into()),
+                        .unwrap_or_else(|| "–".into()),
                     fit.runs,
                     fit.basis,
-                    fit.order
+                    fit.order,
+                    if matches!(verdict, Verdict::DoesNotPredict { .. }) {
+                        ": does not predict"
+                    } else {
+                        ""
+                    }
                 )),
+            }
+            if let Some(warning) = verdict
+                .warning(&fit.response)
+                .filter(|_| !verdict.is_constant())
+            {
+                out.push_str(&format!("    warning: {warning}\n"));
             }
             if let (Some(sigma), Some(r2)) = (fit.sigma_test, fit.r2_test) {
                 out.push_str(&format!(
@@ -335,10 +375,22 @@ pub fn rounds_summary(rounds: &[StoredRound], names: &[String]) -> String {
                 .zip(natural)
                 .map(|(n, v)| format!("{n} = {v:.6}"))
                 .collect();
+            let warnings = verdict::optimum_warnings(round, factors, round_runs);
+            let answer = !warnings
+                .iter()
+                .any(|w| w.starts_with(verdict::NOT_AN_ANSWER));
             out.push_str(&format!(
-                "  optimum ({goal} {response}): {value:.6} at {}\n",
+                "  {} ({goal} {response}): {value:.6} at {}\n",
+                if answer {
+                    "optimum"
+                } else {
+                    "best point of the surface, not an answer"
+                },
                 at.join(", ")
             ));
+            for warning in warnings {
+                out.push_str(&format!("    warning: {warning}\n"));
+            }
         }
         if let Some(u) = &round.uncertainty {
             out.push_str(&format!(
@@ -353,8 +405,9 @@ pub fn rounds_summary(rounds: &[StoredRound], names: &[String]) -> String {
     out
 }
 
-/// `orch fit`: every surface of one round, term by term.
-pub fn fits_report(round: &StoredRound) -> String {
+/// `orch fit`: every surface of one round, term by term, with the verdict on each
+/// (`factors` name the terms; `runs` are the round's design runs).
+pub fn fits_report(round: &StoredRound, factors: &[String], runs: &[Run]) -> String {
     let mut out = String::new();
     for fit in &round.fits {
         out.push_str(&format!(
@@ -365,16 +418,28 @@ pub fn fits_report(round: &StoredRound) -> String {
             out.push_str(&format!("  no surface: {error}\n\n"));
             continue;
         }
+        let verdict = verdict_of(fit, factors, runs);
+        if let Some(warning) = verdict.warning(&fit.response) {
+            out.push_str(&format!("  warning: {warning}\n"));
+        }
+        if verdict.is_constant() {
+            out.push('\n');
+            continue;
+        }
         let fmt = |v: Option<f64>, digits: usize| {
             v.map(|v| format!("{v:.digits$}"))
                 .unwrap_or_else(|| "-".into())
         };
         out.push_str(&format!(
             "  σ_cross {} %, R² {}, adjusted R² {}, R²(σ_cross) {}, PRESS {}\n",
-            fmt(fit.sigma_cross, 2),
+            fit.sigma_cross
+                .map(|v| format!("{v:.2}"))
+                .unwrap_or_else(|| "–".into()),
             fmt(fit.r2, 4),
             fmt(fit.adjusted_r2, 4),
-            fmt(fit.r2_cross, 4),
+            fit.r2_cross
+                .map(|v| format!("{v:.4}"))
+                .unwrap_or_else(|| "–".into()),
             fit.press
                 .map(|v| format!("{v:.4e}"))
                 .unwrap_or_else(|| "-".into())
@@ -546,5 +611,120 @@ mod tests {
         ] {
             assert_eq!(never.note("short", state), None);
         }
+    }
+
+    use orch_metamodel::FactorRange;
+
+    fn fit(response: &str, r2_cross: Option<f64>) -> StoredFit {
+        StoredFit {
+            response: response.into(),
+            basis: "legendre".into(),
+            order: 1,
+            runs: 4,
+            r2: Some(1.0),
+            adjusted_r2: None,
+            sigma_cross: r2_cross.map(|r| 100.0 * (1.0 - r).sqrt()),
+            r2_cross,
+            press: Some(0.0),
+            test_runs: 0,
+            sigma_test: None,
+            r2_test: None,
+            error: None,
+            terms: vec![("1".into(), 1.0, None, Some(1e15))],
+        }
+    }
+
+    fn run(x: f64, rate: f64) -> Run {
+        Run {
+            job: format!("p{x}"),
+            coded: vec![x],
+            natural: vec![0.024 + 0.004 * x],
+            responses: BTreeMap::from([("rate".into(), rate), ("fraction".into(), 1.0)]),
+        }
+    }
+
+    #[test]
+    fn the_summary_warns_of_a_constant_response_a_surface_that_does_not_predict_and_a_limit() {
+        let factors = vec![FactorRow {
+            name: "outlet_diameter".into(),
+            min: 0.02,
+            max: 0.028,
+            unit: "m".into(),
+        }];
+        let round = StoredRound {
+            round: 0,
+            ranges: vec![FactorRange {
+                min: 0.02,
+                max: 0.028,
+            }],
+            fits: vec![fit("rate", Some(0.2)), fit("fraction", None)],
+            optimum: Some(("rate".into(), "maximise".into(), 1.5, vec![0.028])),
+            uncertainty: None,
+            decision: None,
+        };
+        let runs = BTreeMap::from([(
+            0,
+            vec![run(-1.0, 1.0), run(0.0, 1.4), run(1.0, 1.3), run(0.5, 1.1)],
+        )]);
+        let text = rounds_summary(std::slice::from_ref(&round), &factors, &runs);
+        assert!(text.contains("rate: σ_cross 89.4 %"), "{text}");
+        assert!(text.contains(": does not predict"), "{text}");
+        assert!(
+            text.contains("fraction: constant: 1 in every run; nothing to fit"),
+            "{text}"
+        );
+        assert!(!text.contains("fraction: σ_cross"), "{text}");
+        assert!(
+            text.contains("best point of the surface, not an answer (maximise rate)"),
+            "{text}"
+        );
+        assert!(
+            text.contains("widen outlet_diameter's range above 0.028"),
+            "{text}"
+        );
+
+        let report = fits_report(&round, &["outlet_diameter".into()], &runs[&0]);
+        assert!(
+            report.contains("warning: fraction does not vary"),
+            "{report}"
+        );
+        assert_eq!(
+            report.matches("TERM").count(),
+            1,
+            "a term table for rate only, none with t-values for the constant: {report}"
+        );
+        assert!(
+            report.contains("warning: the surface of rate does not predict"),
+            "{report}"
+        );
+    }
+
+    #[test]
+    fn a_missing_sigma_cross_is_a_dash_with_the_reason() {
+        let mut saturated = fit("rate", None);
+        saturated.press = None;
+        saturated.runs = 2;
+        saturated.terms = vec![("1".into(), 1.0, None, None), ("x".into(), 0.1, None, None)];
+        let round = StoredRound {
+            round: 0,
+            ranges: vec![FactorRange { min: 0.0, max: 1.0 }],
+            fits: vec![saturated],
+            optimum: None,
+            uncertainty: None,
+            decision: None,
+        };
+        let factors = vec![FactorRow {
+            name: "x".into(),
+            min: 0.0,
+            max: 1.0,
+            unit: "m".into(),
+        }];
+        let runs = BTreeMap::from([(0, vec![run(-1.0, 1.0), run(1.0, 2.0)])]);
+        let text = rounds_summary(&[round], &factors, &runs);
+        assert!(text.contains("rate: σ_cross – %"), "{text}");
+        assert!(
+            text.contains("σ_cross of rate is –: 2 runs for 2 terms: every run has leverage 1"),
+            "{text}"
+        );
     }
 }

@@ -15,6 +15,7 @@ mod openfoam;
 mod pipes;
 mod real_liggghts;
 mod refusals;
+mod reports;
 mod rounds;
 mod slurm;
 mod study_files;

@@ -147,6 +147,11 @@ impl Simulation for CustomDeck {
         &self.response_specs
     }
 
+    /// Each declared response's values over time are stored under its name.
+    fn series(&self) -> &[ResponseSpec] {
+        &self.response_specs
+    }
+
     fn headline_responses(&self) -> Vec<String> {
         self.responses.iter().map(|r| r.name.clone()).collect()
     }

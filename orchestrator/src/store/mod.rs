@@ -14,6 +14,7 @@
 
 mod rounds;
 mod rows;
+mod series;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};

@@ -1,0 +1,691 @@
+//! `orch report`: one self-contained HTML file per study — no scripts, no fonts, no
+//! links out — with inline SVG figures, from what the store keeps.
+//!
+//! Per round: the design in natural units, the trust-region box, each response
+//! surface (a heat map for two factors, a curve for one, slices through the optimum
+//! for more) with its design points, predicted against observed with leave-one-out
+//! predictions, the Pareto chart of standardised effects, the optimum, and the Monte
+//! Carlo summary. Per run: the response values and every stored series.
+//! The surfaces are refitted from the stored runs ([`crate::surfaces`]).
+
+pub mod html;
+pub mod plots;
+
+use std::collections::{BTreeMap, BTreeSet, HashMap};
+use std::fmt::Write;
+
+use orch_metamodel::{FactorRange, Fit};
+
+use crate::export::unit_of;
+use crate::store::{FactorRow, Store, StoreError, StoredFit, StoredRound, StudyRow};
+use crate::study::Study;
+use crate::surfaces::{self, Observed, Run};
+use html::{escape, figure, label, number, table, with_unit};
+
+/// What the report is made from, read from the store at once.
+struct Data<'a> {
+    row: &'a StudyRow,
+    study: Option<&'a Study>,
+    factors: Vec<FactorRow>,
+    names: Vec<String>,
+    rounds: Vec<StoredRound>,
+    runs: BTreeMap<i64, Vec<Run>>,
+}
+
+impl Data<'_> {
+    fn unit(&self, name: &str) -> String {
+        unit_of(self.study, name).unwrap_or_default()
+    }
+}
+
+/// The report of a study as one HTML page.
+pub async fn render(
+    store: &Store,
+    row: &StudyRow,
+    study: Option<&Study>,
+) -> Result<String, StoreError> {
+    let factors = store.factors(row.id).await?;
+    let data = Data {
+        row,
+        study,
+        names: factors.iter().map(|f| f.name.clone()).collect(),
+        factors,
+        rounds: store.rounds(row.id).await?,
+        runs: surfaces::design_runs(store, row.id).await?,
+    };
+    let mut body = String::new();
+    let jobs = store.jobs(row.id).await?;
+    let mut counts: BTreeMap<String, usize> = BTreeMap::new();
+    for job in &jobs {
+        *counts.entry(job.state.to_string()).or_default() += 1;
+    }
+    let counts: Vec<String> = counts.iter().map(|(s, n)| format!("{n} {s}")).collect();
+    let _ = write!(
+        body,
+        "<h1>{}: report</h1>\n<p>Solver <b>{}</b>, study {}, {} jobs: {}. Study file {}. Written by orch {}.</p>\n",
+        escape(&row.name),
+        escape(&row.solver),
+        escape(row.state.as_str()),
+        jobs.len(),
+        counts.join(", "),
+        escape(&row.file_path),
+        env!("CARGO_PKG_VERSION")
+    );
+    body.push_str(DEFINITIONS);
+    for round in &data.rounds {
+        body.push_str(&round_section(store, &data, round).await?);
+    }
+    body.push_str(&runs_section(store, &data).await?);
+    Ok(html::page(&format!("{}: report", row.name), &body))
+}
+
+const DEFINITIONS: &str = "<h2>Definitions</h2>\n<dl>\
+<dt>Coded units</dt><dd>Each factor scaled to [−1, 1] over its round's box; surfaces are fitted in coded units and drawn in natural (SI) units.</dd>\
+<dt>σ_cross</dt><dd>Cross-validation error: the root mean square of the leave-one-out prediction errors (each run predicted by the surface fitted to the other runs), relative to the sample standard deviation of the observed values, in %. 0 % predicts perfectly; 100 % is no better than the mean.</dd>\
+<dt>R²(σ_cross)</dt><dd>1 − (σ_cross / 100)². Below 0.5 the surface does not predict new runs, and its optimum is not an answer.</dd>\
+<dt>R²</dt><dd>ANOVA R² = 1 − SS_res / SS_tot on the fitted runs themselves; it rises with every term added and says little about prediction.</dd>\
+<dt>Standardised effect (t)</dt><dd>A term's coefficient divided by its standard error; the Pareto chart ranks terms by |t|, the red line at |t| = 2 marks about 95 % significance.</dd>\
+<dt>Leverage</dt><dd>How much a run fixes its own prediction (the hat matrix's diagonal). A run of leverage 1 (a single centre point, or as many runs as terms) cannot be left out, so σ_cross is not defined: use 3 centre points.</dd>\
+<dt>95 % interval</dt><dd>From Monte Carlo samples of the uncertain factors through the surface at the optimum: 2.5 % and 97.5 % quantiles; one-sided bounds are the 5 % and 95 % quantiles.</dd>\
+</dl>\n";
+
+async fn round_section(
+    store: &Store,
+    data: &Data<'_>,
+    round: &StoredRound,
+) -> Result<String, StoreError> {
+    let mut out = format!("<h2>Round {}</h2>\n", round.round);
+    if let Some((decision, note)) = &round.decision {
+        let _ = writeln!(
+            out,
+            "<p>Decision: <b>{}</b>: {}</p>",
+            escape(decision),
+            escape(note)
+        );
+    }
+    out.push_str(&design_table(store, data, round.round).await?);
+    out.push_str(&trust_region(data, round));
+    let runs: &[Run] = data
+        .runs
+        .get(&round.round)
+        .map(Vec::as_slice)
+        .unwrap_or(&[]);
+    for fit in &round.fits {
+        out.push_str(&surface_section(data, round, fit, runs));
+    }
+    out.push_str(&optimum_section(data, round));
+    Ok(out)
+}
+
+async fn design_table(store: &Store, data: &Data<'_>, round: i64) -> Result<String, StoreError> {
+    let points: HashMap<i64, _> = store
+        .points(data.row.id)
+        .await?
+        .into_iter()
+        .filter(|p| p.round == round)
+        .map(|p| (p.id, p))
+        .collect();
+    let mut headers: Vec<String> = ["job", "purpose", "point", "replicate", "state"]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+    headers.extend(
+        data.factors
+            .iter()
+            .map(|f| crate::export::header(&f.name, Some(&f.unit))),
+    );
+    let mut rows = Vec::new();
+    for job in store.jobs(data.row.id).await? {
+        let Some(point) = points.get(&job.point_id) else {
+            continue;
+        };
+        let mut row = vec![
+            escape(&job.name),
+            escape(&point.purpose),
+            point.idx.to_string(),
+            job.replicate.to_string(),
+            escape(job.state.as_str()),
+        ];
+        row.extend(point.natural.iter().map(|v| number(*v)));
+        rows.push(row);
+    }
+    Ok(format!(
+        "<h3>Design of round {round}</h3>\n{}",
+        table(&headers, &rows)
+    ))
+}
+
+fn trust_region(data: &Data<'_>, round: &StoredRound) -> String {
+    let mut out = format!("<h3>Trust region of round {}</h3>\n", round.round);
+    let headers: Vec<String> = ["factor", "min", "max", "limits in the study file"]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+    let rows: Vec<Vec<String>> = data
+        .factors
+        .iter()
+        .zip(&round.ranges)
+        .map(|(f, r)| {
+            vec![
+                escape(&f.name),
+                with_unit(r.min, &f.unit),
+                with_unit(r.max, &f.unit),
+                format!(
+                    "[{}, {}]",
+                    with_unit(f.min, &f.unit),
+                    with_unit(f.max, &f.unit)
+                ),
+            ]
+        })
+        .collect();
+    out.push_str(&table(&headers, &rows));
+    let so_far: Vec<&StoredRound> = data
+        .rounds
+        .iter()
+        .filter(|r| r.round <= round.round && r.ranges.len() == data.factors.len())
+        .collect();
+    if data.factors.len() == 2 {
+        let f = &data.factors;
+        let boxes: Vec<_> = so_far
+            .iter()
+            .map(|r| {
+                (
+                    format!("round {}", r.round),
+                    [
+                        (r.ranges[0].min, r.ranges[0].max),
+                        (r.ranges[1].min, r.ranges[1].max),
+                    ],
+                    r.optimum
+                        .as_ref()
+                        .map(|o| (o.2, o.3[0], o.3[1]))
+                        .map(|o| (o.1, o.2)),
+                )
+            })
+            .collect();
+        let svg = plots::boxes(
+            &label(&f[0].name, &f[0].unit),
+            &label(&f[1].name, &f[1].unit),
+            [(f[0].min, f[0].max), (f[1].min, f[1].max)],
+            &boxes,
+        );
+        out.push_str(&figure(
+            &svg,
+            "Each round's box (filled) inside the study file's limits (black), and each round's optimum (cross).",
+        ));
+    } else {
+        for (i, f) in data.factors.iter().enumerate() {
+            let bars: Vec<_> = so_far
+                .iter()
+                .map(|r| {
+                    (
+                        (r.ranges[i].min, r.ranges[i].max),
+                        r.optimum.as_ref().and_then(|o| o.3.get(i).copied()),
+                    )
+                })
+                .collect();
+            let svg = plots::intervals(&label(&f.name, &f.unit), (f.min, f.max), &bars);
+            out.push_str(&figure(
+                &svg,
+                "Each round's range (bar) and optimum (cross).",
+            ));
+        }
+    }
+    out
+}
+
+/// The optimum's natural values, when the round has one with a value per factor.
+fn optimum_point(data: &Data<'_>, round: &StoredRound) -> Option<Vec<f64>> {
+    round
+        .optimum
+        .as_ref()
+        .map(|o| o.3.clone())
+        .filter(|v| v.len() == data.factors.len())
+}
+
+fn surface_section(data: &Data<'_>, round: &StoredRound, fit: &StoredFit, runs: &[Run]) -> String {
+    let unit = data.unit(&fit.response);
+    let mut out = format!(
+        "<h3>Response surface: {}</h3>\n",
+        label(&fit.response, &unit)
+    );
+    if let Some(error) = &fit.error {
+        let _ = writeln!(out, "<p class=\"warn\">No surface: {}</p>", escape(error));
+        return out;
+    }
+    let observed = surfaces::observed(runs, &fit.response);
+    let verdict = crate::verdict::judge(fit, &observed.y, None);
+    if verdict.is_constant() {
+        // No R², σ_cross, surface or effects: there is nothing to fit.
+        if let Some(warning) = verdict.warning(&fit.response) {
+            let _ = writeln!(out, "<p class=\"bad\">{}</p>", escape(&warning));
+        }
+        return out;
+    }
+    let fmt =
+        |v: Option<f64>, d: usize| v.map(|v| format!("{v:.d$}")).unwrap_or_else(|| "–".into());
+    let _ = writeln!(
+        out,
+        "<p>{} basis, order {}, {} runs: σ_cross {} %, R²(σ_cross) {}, R² {}, adjusted R² {}{}</p>",
+        escape(&fit.basis),
+        fit.order,
+        fit.runs,
+        fmt(fit.sigma_cross, 1),
+        fmt(fit.r2_cross, 4),
+        fmt(fit.r2, 4),
+        fmt(fit.adjusted_r2, 4),
+        match (fit.sigma_test, fit.r2_test) {
+            (Some(s), Some(r)) => format!(
+                "; on {} held-out test runs σ_test {s:.1} %, R²(test) {r:.4}",
+                fit.test_runs
+            ),
+            _ => String::new(),
+        }
+    );
+    let refitted = surfaces::refit(fit, &data.names, &observed);
+    let verdict = match &refitted {
+        Some(f) => crate::verdict::judge(fit, &observed.y, Some(&f.leverages)),
+        None => verdict,
+    };
+    if let Some(warning) = verdict.warning(&fit.response) {
+        let _ = writeln!(out, "<p class=\"bad\">{}</p>", escape(&warning));
+    }
+    let Some(surface) = refitted else {
+        out.push_str("<p class=\"note\">The surface could not be refitted from the stored runs (a run was deleted or changed since); only the stored numbers are shown.</p>\n");
+        return out;
+    };
+    out.push_str(&surface_figures(
+        data, round, fit, &unit, &surface, &observed,
+    ));
+    let pairs: Option<Vec<(f64, f64)>> = surfaces::loo_predictions(&surface, &observed.y)
+        .map(|p| observed.y.iter().copied().zip(p).collect());
+    match pairs {
+        Some(pairs) => out.push_str(&figure(
+            &plots::predicted_observed(
+                &format!("Predicted against observed: {}", fit.response),
+                &format!("[{}]", unit),
+                &pairs,
+            ),
+            "Each run predicted by the surface fitted without it (leave-one-out); on the grey line the prediction is exact.",
+        )),
+        None => out.push_str("<p class=\"note\">Predicted against observed: no leave-one-out predictions, because a run has leverage 1 (see Definitions).</p>\n"),
+    }
+    let effects = surface.effects();
+    if effects.is_empty() {
+        out.push_str("<p class=\"note\">Pareto chart: no standardised effects (as many runs as terms).</p>\n");
+    } else {
+        out.push_str(&figure(
+            &plots::pareto(&format!("Pareto chart: {}", fit.response), &effects),
+            "Terms ranked by |t|; blue positive, orange negative coefficients.",
+        ));
+    }
+    out
+}
+
+/// The surface drawn over the round's box in natural units.
+fn surface_figures(
+    data: &Data<'_>,
+    round: &StoredRound,
+    fit: &StoredFit,
+    unit: &str,
+    surface: &Fit,
+    observed: &Observed,
+) -> String {
+    let ranges: &[FactorRange] = &round.ranges;
+    if ranges.len() != data.factors.len() {
+        return String::new();
+    }
+    let coded = |natural: &[f64]| -> Vec<f64> {
+        natural
+            .iter()
+            .zip(ranges)
+            .map(|(v, r)| r.to_coded(*v))
+            .collect()
+    };
+    let optimum = optimum_point(data, round);
+    let z_label = label(&fit.response, unit);
+    let f = &data.factors;
+    match f.len() {
+        2 => {
+            let points: Vec<(f64, f64)> = observed.natural.iter().map(|p| (p[0], p[1])).collect();
+            let svg = plots::heatmap(
+                &format!("Response surface: {}", fit.response),
+                &label(&f[0].name, &f[0].unit),
+                (ranges[0].min, ranges[0].max),
+                &label(&f[1].name, &f[1].unit),
+                (ranges[1].min, ranges[1].max),
+                &z_label,
+                |x, y| surface.predict(&coded(&[x, y])),
+                &points,
+                optimum.as_ref().map(|o| (o[0], o[1])),
+            );
+            figure(
+                &svg,
+                "The fitted surface over the round's box; white circles: design points; red cross: the optimum.",
+            )
+        }
+        _ => {
+            let through =
+                optimum.unwrap_or_else(|| ranges.iter().map(|r| 0.5 * (r.min + r.max)).collect());
+            let mut out = String::new();
+            for (i, factor) in f.iter().enumerate() {
+                let curve: Vec<(f64, f64)> = (0..=60)
+                    .map(|s| {
+                        let x = ranges[i].min + (ranges[i].max - ranges[i].min) * s as f64 / 60.0;
+                        let mut point = through.clone();
+                        point[i] = x;
+                        (x, surface.predict(&coded(&point)))
+                    })
+                    .collect();
+                let points: Vec<(f64, f64)> = if f.len() == 1 {
+                    observed
+                        .natural
+                        .iter()
+                        .zip(&observed.y)
+                        .map(|(p, y)| (p[0], *y))
+                        .collect()
+                } else {
+                    Vec::new()
+                };
+                let svg = plots::lines(
+                    &format!("Response surface: {} along {}", fit.response, factor.name),
+                    &label(&factor.name, &factor.unit),
+                    &z_label,
+                    &[(fit.response.clone(), curve)],
+                    &points,
+                    Some(through[i]),
+                    if f.len() == 1 {
+                        plots::WIDE
+                    } else {
+                        plots::HALF
+                    },
+                );
+                out.push_str(&figure(
+                    &svg,
+                    if f.len() == 1 {
+                        "The fitted curve with the observed runs (dots); red line: the optimum or the centre."
+                    } else {
+                        "A slice of the surface along one factor, the others held at the optimum (or the box's centre); red line: that point."
+                    },
+                ));
+            }
+            out
+        }
+    }
+}
+
+fn optimum_section(data: &Data<'_>, round: &StoredRound) -> String {
+    let mut out = format!("<h3>Optimum of round {}</h3>\n", round.round);
+    let Some((response, goal, value, natural)) = &round.optimum else {
+        out.push_str(
+            "<p class=\"note\">No optimum: the study has no objective, or no surface of it.</p>\n",
+        );
+        return out;
+    };
+    let unit = data.unit(response);
+    let warnings = crate::verdict::optimum_warnings(
+        round,
+        &data.factors,
+        &data.runs.get(&round.round).cloned().unwrap_or_default(),
+    );
+    for warning in &warnings {
+        let _ = writeln!(out, "<p class=\"bad\">{}</p>", escape(warning));
+    }
+    let answer = !warnings
+        .iter()
+        .any(|w| w.starts_with(crate::verdict::NOT_AN_ANSWER));
+    let _ = writeln!(
+        out,
+        "<p>{}{} {}: predicted {}</p>",
+        if answer {
+            ""
+        } else {
+            "Best point of the surface, not an answer: "
+        },
+        escape(goal),
+        escape(response),
+        with_unit(*value, &unit)
+    );
+    let headers: Vec<String> = ["factor", "value", "round's box", "limits in the study file"]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+    let rows: Vec<Vec<String>> = data
+        .factors
+        .iter()
+        .zip(natural)
+        .zip(&round.ranges)
+        .map(|((f, v), r)| {
+            vec![
+                escape(&f.name),
+                with_unit(*v, &f.unit),
+                format!("[{}, {}]", number(r.min), number(r.max)),
+                format!("[{}, {}]", number(f.min), number(f.max)),
+            ]
+        })
+        .collect();
+    out.push_str(&table(&headers, &rows));
+    if let Some(u) = &round.uncertainty {
+        let _ = writeln!(
+            out,
+            "<h3>Monte Carlo at the optimum of round {}</h3>\n<p class=\"note\">The store keeps only these summary numbers of the {} samples, not the samples, so no histogram is drawn.</p>",
+            round.round, u.samples
+        );
+        let headers: Vec<String> = [
+            "mean",
+            "std",
+            "95 % interval",
+            "one-sided 95 % lower bound",
+            "one-sided 95 % upper bound",
+        ]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+        out.push_str(&table(
+            &headers,
+            &[vec![
+                with_unit(u.mean, &unit),
+                with_unit(u.std, &unit),
+                format!(
+                    "[{}, {}]",
+                    with_unit(u.q025, &unit),
+                    with_unit(u.q975, &unit)
+                ),
+                with_unit(u.q05, &unit),
+                with_unit(u.q95, &unit),
+            ]],
+        ));
+    }
+    out
+}
+
+/// Points drawn per line of a series chart; longer series are thinned evenly.
+const MAX_LINE_POINTS: usize = 400;
+
+/// At most about `max` of `points`, evenly spaced, always with the first and last.
+fn decimate(points: &[(f64, f64)], max: usize) -> Vec<(f64, f64)> {
+    if points.len() <= max || max < 2 {
+        return points.to_vec();
+    }
+    let step = points.len().div_ceil(max - 1);
+    let mut out: Vec<(f64, f64)> = points.iter().step_by(step).copied().collect();
+    if out.last() != points.last() {
+        out.extend(points.last().copied());
+    }
+    out
+}
+
+async fn runs_section(store: &Store, data: &Data<'_>) -> Result<String, StoreError> {
+    let mut out = String::from("<h2>Runs</h2>\n<h3>Response values of every run</h3>\n");
+    let table_of_runs = crate::export::runs_table(store, data.row, data.study).await?;
+    let rows: Vec<Vec<String>> = table_of_runs
+        .rows
+        .iter()
+        .map(|row| {
+            row.iter()
+                .map(|cell| match cell {
+                    crate::export::Cell::Text(s) => escape(s),
+                    crate::export::Cell::Int(i) => i.to_string(),
+                    crate::export::Cell::Real(v) => number(*v),
+                    crate::export::Cell::Empty => "–".into(),
+                })
+                .collect()
+        })
+        .collect();
+    out.push_str(&table(&table_of_runs.headers, &rows));
+
+    let names: HashMap<i64, String> = store
+        .jobs(data.row.id)
+        .await?
+        .into_iter()
+        .map(|j| (j.id, j.name))
+        .collect();
+    let mut series: BTreeMap<String, BTreeMap<String, Vec<(f64, f64)>>> = BTreeMap::new();
+    for (job, name, t, value) in store.study_series(data.row.id).await? {
+        let job = names.get(&job).cloned().unwrap_or_default();
+        series
+            .entry(name)
+            .or_default()
+            .entry(job)
+            .or_default()
+            .push((t, value));
+    }
+    if series.is_empty() {
+        out.push_str("<p class=\"note\">No run stored a time series.</p>\n");
+        return Ok(out);
+    }
+    let shown: BTreeSet<&String> = series.keys().collect();
+    let _ = writeln!(
+        out,
+        "<h3>Series of every run</h3>\n<p class=\"note\">{} series, each with one line per run.</p>",
+        shown.len()
+    );
+    for (name, by_job) in &series {
+        let unit = data.unit(name);
+        let lines: Vec<(String, Vec<(f64, f64)>)> = by_job
+            .iter()
+            .map(|(j, p)| (j.clone(), decimate(p, MAX_LINE_POINTS)))
+            .collect();
+        let svg = plots::lines(
+            &format!("Series: {name}"),
+            "t [s]",
+            &label(name, &unit),
+            &lines,
+            &[],
+            None,
+            plots::WIDE,
+        );
+        out.push_str(&figure(
+            &svg,
+            &format!("{} over time, one line per run.", escape(name)),
+        ));
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::store::JobResults;
+    use std::path::Path;
+
+    /// Two factors, an objective, Monte Carlo over one factor; one response constant.
+    const STUDY: &str = "\
+name: known
+solver: liggghts
+factors:
+  - {name: outlet_diameter, min: 0.020, max: 0.028, unit: m}
+  - {name: amplitude, min: 0.0, max: 0.0008, unit: m}
+design: {type: central_composite, alpha: face_centred}
+responses: [discharge_rate, fine_fraction_outer_2]
+objective: {response: discharge_rate, goal: maximise}
+uncertainty:
+  samples: 1000
+  seed: 1
+  parameters: [{name: amplitude, distribution: normal, mean: 0.0004, std: 0.00004}]
+";
+
+    /// A known quadratic rate with a little scatter, a constant fraction, and a series.
+    fn results(coded: &[f64], k: usize) -> JobResults {
+        let noise = [0.01, -0.02, 0.015, -0.005, 0.0, 0.02, -0.01, 0.005, -0.015][k % 9];
+        JobResults {
+            responses: vec![
+                (
+                    "discharge_rate".into(),
+                    1.0 - (coded[0] - 0.5).powi(2) - coded[1].powi(2) + noise,
+                ),
+                ("fine_fraction_outer_2".into(), 1.0),
+            ],
+            series: vec![(
+                "mass_flow_rate".into(),
+                (0..5).map(|i| (0.1 * i as f64, 0.2 * i as f64)).collect(),
+            )],
+            note: None,
+        }
+    }
+
+    #[tokio::test]
+    async fn a_report_of_a_known_round_has_every_figure_warning_and_unit() {
+        let dir = tempfile::tempdir().unwrap();
+        let store = Store::open(dir.path()).await.unwrap();
+        let study = Study::from_text(Path::new("known.yaml"), STUDY, None).unwrap();
+        let id = store
+            .insert_study(&study, Path::new("known.yaml"), &dir.path().join("runs"))
+            .await
+            .unwrap();
+        let points: HashMap<i64, Vec<f64>> = store
+            .points(id)
+            .await
+            .unwrap()
+            .into_iter()
+            .map(|p| (p.id, p.coded))
+            .collect();
+        for (k, job) in store.jobs(id).await.unwrap().iter().enumerate() {
+            store.mark_rendered(job.id).await.unwrap();
+            store.mark_running(job.id, "1:1", 0.0).await.unwrap();
+            let results = results(&points[&job.point_id], k);
+            store.mark_succeeded(job.id, 0, &results).await.unwrap();
+        }
+        crate::rounds::advance(&store, id, &study, &dir.path().join("runs/known"))
+            .await
+            .unwrap();
+        let row = store.study_by_name("known").await.unwrap().unwrap();
+        let html = render(&store, &row, Some(&study)).await.unwrap();
+
+        // A heat map, predicted against observed and a Pareto chart for the rate; none
+        // for the constant fraction; the trust region; one series chart.
+        assert_eq!(html.matches("<svg").count(), 3 + 1 + 1, "{html}");
+        for text in [
+            "<h2>Definitions</h2>",
+            "Response surface: discharge_rate [kg/s]",
+            "Predicted against observed: discharge_rate",
+            "Pareto chart: discharge_rate",
+            "fine_fraction_outer_2 does not vary: it is 1 in every run",
+            "Optimum of round 0",
+            "Monte Carlo at the optimum of round 0",
+            "outlet_diameter [m]",
+            "Series: mass_flow_rate",
+            "mass_flow_rate [kg/s]",
+        ] {
+            assert!(html.contains(text), "the report lacks {text}");
+        }
+        assert!(!html.contains("Response surface: fine_fraction_outer_2 along"));
+        assert!(!html.contains("<script"), "no scripts");
+        // The optimum of a well-predicted surface inside the box is an answer.
+        assert!(!html.contains(crate::verdict::NOT_AN_ANSWER), "{html}");
+        assert!(!html.contains("Best point of the surface"), "{html}");
+        assert!(
+            html.contains("<p>maximise discharge_rate: predicted"),
+            "{html}"
+        );
+    }
+
+    #[test]
+    fn long_series_are_thinned_keeping_both_ends() {
+        let points: Vec<(f64, f64)> = (0..1001).map(|i| (i as f64, 2.0 * i as f64)).collect();
+        let thin = decimate(&points, 100);
+        assert!(thin.len() <= 101, "{}", thin.len());
+        assert_eq!(thin.first(), points.first());
+        assert_eq!(thin.last(), points.last());
+        assert_eq!(decimate(&points[..50], 100).len(), 50);
+    }
+}

@@ -1,0 +1,164 @@
+//! Response surfaces refitted from what the store keeps: each round's succeeded design
+//! runs and the basis and order of its stored fit. The fit is deterministic, so the
+//! refit equals the stored one; it also gives what the store does not keep — the
+//! leave-one-out predictions, the leverages and the surface between the points — for
+//! `orch report` and for the warnings of `orch status` and `orch fit`.
+
+use std::collections::{BTreeMap, HashMap};
+
+use orch_metamodel::{Basis, BasisKind, Fit};
+
+use crate::store::{JobState, Store, StoreError, StoredFit};
+
+/// One succeeded job on a design point (not a held-out test point).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Run {
+    /// Job name.
+    pub job: String,
+    /// Coded factor values of its point, in [-1, 1] of its round's box.
+    pub coded: Vec<f64>,
+    /// Natural factor values (SI units).
+    pub natural: Vec<f64>,
+    /// Its responses by name.
+    pub responses: BTreeMap<String, f64>,
+}
+
+/// The observations of one response over a round's design runs.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Observed {
+    /// Job names.
+    pub jobs: Vec<String>,
+    /// Coded points.
+    pub coded: Vec<Vec<f64>>,
+    /// Natural points.
+    pub natural: Vec<Vec<f64>>,
+    /// Observed values.
+    pub y: Vec<f64>,
+}
+
+/// Succeeded design runs of every round, by round: what each round's fits used.
+pub async fn design_runs(
+    store: &Store,
+    study_id: i64,
+) -> Result<BTreeMap<i64, Vec<Run>>, StoreError> {
+    let points: HashMap<i64, _> = store
+        .points(study_id)
+        .await?
+        .into_iter()
+        .filter(|p| p.purpose == "design")
+        .map(|p| (p.id, p))
+        .collect();
+    let mut responses = store.responses(study_id).await?;
+    let mut out: BTreeMap<i64, Vec<Run>> = BTreeMap::new();
+    for job in store.jobs(study_id).await? {
+        let Some(point) = points.get(&job.point_id) else {
+            continue;
+        };
+        if job.state() != JobState::Succeeded {
+            continue;
+        }
+        out.entry(point.round).or_default().push(Run {
+            responses: responses.remove(&job.id).unwrap_or_default(),
+            job: job.name,
+            coded: point.coded.clone(),
+            natural: point.natural.clone(),
+        });
+    }
+    Ok(out)
+}
+
+/// The runs of `runs` that have `response`, as the round's analysis saw them.
+pub fn observed(runs: &[Run], response: &str) -> Observed {
+    let mut observed = Observed::default();
+    for run in runs {
+        if let Some(value) = run.responses.get(response) {
+            observed.jobs.push(run.job.clone());
+            observed.coded.push(run.coded.clone());
+            observed.natural.push(run.natural.clone());
+            observed.y.push(*value);
+        }
+    }
+    observed
+}
+
+/// The basis a stored fit names.
+pub fn basis_kind(name: &str) -> Option<BasisKind> {
+    match name {
+        "legendre" => Some(BasisKind::Legendre),
+        "monomial" => Some(BasisKind::Monomial),
+        _ => None,
+    }
+}
+
+/// The stored fit again, from its observations; `None` when it had no surface or its
+/// basis is unknown.
+pub fn refit(fit: &StoredFit, factor_names: &[String], observed: &Observed) -> Option<Fit> {
+    if fit.error.is_some() {
+        return None;
+    }
+    let kind = basis_kind(&fit.basis)?;
+    let basis = Basis::complete(kind, factor_names.len(), u32::try_from(fit.order).ok()?);
+    Fit::new(basis, factor_names, &observed.coded, &observed.y).ok()
+}
+
+/// Leave-one-out predictions `y_i − e_i / (1 − h_ii)`, when no run has leverage 1.
+pub fn loo_predictions(fit: &Fit, y: &[f64]) -> Option<Vec<f64>> {
+    let loo = fit.quality.loo_residuals.as_ref()?;
+    Some(y.iter().zip(loo).map(|(y, e)| y - e).collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn run(coded: Vec<f64>, value: f64) -> Run {
+        Run {
+            job: format!("j{}", coded[0]),
+            natural: coded.clone(),
+            coded,
+            responses: BTreeMap::from([("y".to_string(), value)]),
+        }
+    }
+
+    #[test]
+    fn loo_predictions_of_a_line_through_noisy_points_leave_each_point_out() {
+        let runs: Vec<Run> = [(-1.0, 0.0), (-0.5, 1.2), (0.0, 1.9), (0.5, 3.1), (1.0, 4.0)]
+            .iter()
+            .map(|(x, y)| run(vec![*x], *y))
+            .collect();
+        let observed = observed(&runs, "y");
+        let stored = StoredFit {
+            response: "y".into(),
+            basis: "monomial".into(),
+            order: 1,
+            runs: 5,
+            r2: None,
+            adjusted_r2: None,
+            sigma_cross: None,
+            r2_cross: None,
+            press: None,
+            test_runs: 0,
+            sigma_test: None,
+            r2_test: None,
+            error: None,
+            terms: vec![],
+        };
+        let fit = refit(&stored, &["x".to_string()], &observed).unwrap();
+        let loo = loo_predictions(&fit, &observed.y).unwrap();
+        // The first point predicted by the line through the other four, by hand.
+        let (xs, ys) = ([-0.5, 0.0, 0.5, 1.0], [1.2, 1.9, 3.1, 4.0]);
+        let (mx, my) = (0.25, 2.55);
+        let slope: f64 = xs
+            .iter()
+            .zip(ys)
+            .map(|(x, y)| (x - mx) * (y - my))
+            .sum::<f64>()
+            / xs.iter().map(|x| (x - mx).powi(2)).sum::<f64>();
+        let expected = my + slope * (-1.0 - mx);
+        assert!(
+            (loo[0] - expected).abs() < 1e-12,
+            "{} vs {expected}",
+            loo[0]
+        );
+    }
+}

@@ -25,6 +25,9 @@ pub struct YadeSummary {
     pub particle_steps: f64,
     /// Particles still in the hopper at the end.
     pub particles_left: u64,
+    /// Mass the script removed below the sink, kg (`removed_mass_kg`; logs written
+    /// before it was added lack it).
+    pub removed_mass_kg: Option<f64>,
 }
 
 /// Reads `log.yade`; a log without its summary line is a run that did not finish.
@@ -54,6 +57,10 @@ pub fn read_log<R: BufRead>(reader: R, path: &Path) -> Result<YadeSummary, Parse
             steps: value("steps")? as u64,
             particle_steps: value("particle_steps")?,
             particles_left: value("particles_left")? as u64,
+            removed_mass_kg: rest
+                .contains("removed_mass_kg=")
+                .then(|| value("removed_mass_kg"))
+                .transpose()?,
         });
     }
     Err(ParseError::malformed(

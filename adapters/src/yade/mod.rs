@@ -21,7 +21,10 @@ pub use log::{read_log, YadeSummary, SUMMARY_PREFIX};
 
 use crate::native::read_crossings;
 use crate::solver::{one_core_command, SolverTemplate};
-use crate::{open_in_run_dir, Case, CommandSpec, DemSolver, Observations, ParseError, SensorPlane};
+use crate::{
+    crossings_cover_sink, open_in_run_dir, Case, CommandSpec, DemSolver, Observations, ParseError,
+    SensorPlane,
+};
 
 /// YADE, run in batch on one thread.
 pub static SOLVER: DemSolver = DemSolver {
@@ -59,6 +62,9 @@ fn parse(_case: &Case, _sensor: &SensorPlane, run_dir: &Path) -> Result<Observat
     let summary = read_log(reader, &log_path)?;
     let (reader, crossings_path) = open(CROSSINGS_FILE)?;
     let crossings = read_crossings(reader, &crossings_path)?;
+    if let Some(removed) = summary.removed_mass_kg {
+        crossings_cover_sink(&crossings, removed, &crossings_path)?;
+    }
     Ok(Observations {
         crossings,
         solver_loop_time_s: Some(summary.loop_time_s),

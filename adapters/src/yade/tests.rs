@@ -107,3 +107,45 @@ fn truncated_and_malformed_output_is_an_error_naming_the_file_and_line() {
         "{error}"
     );
 }
+
+/// The script's own count of the mass it removed below the sink, against the
+/// crossings it wrote: crossings cut short are refused; a log without the count (an
+/// older script) is read as before.
+#[test]
+fn crossings_are_checked_against_the_mass_the_script_removed() {
+    let fixtures = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/fixtures/yade");
+    let log = std::fs::read_to_string(fixtures.join(LOG_FILE)).unwrap();
+    assert_eq!(
+        read_log(Cursor::new(&log), Path::new("log.yade"))
+            .unwrap()
+            .removed_mass_kg,
+        None
+    );
+    let csv = std::fs::read_to_string(fixtures.join(CROSSINGS_FILE)).unwrap();
+    let crossings = read_crossings(Cursor::new(&csv), Path::new("c.csv")).unwrap();
+    let crossed: f64 = crossings.iter().map(|c| c.mass_kg).sum();
+    let with_count = |removed: f64| {
+        log.lines()
+            .map(|l| {
+                if l.starts_with(SUMMARY_PREFIX) {
+                    format!("{l} removed_mass_kg={removed:.9e}\n")
+                } else {
+                    format!("{l}\n")
+                }
+            })
+            .collect::<String>()
+    };
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir_all(dir.path().join("post")).unwrap();
+    std::fs::write(dir.path().join(CROSSINGS_FILE), &csv).unwrap();
+    std::fs::write(dir.path().join(LOG_FILE), with_count(crossed)).unwrap();
+    observe(&SOLVER, &case_with(&[]), dir.path()).unwrap();
+    std::fs::write(dir.path().join(LOG_FILE), with_count(2.0 * crossed)).unwrap();
+    let error = observe(&SOLVER, &case_with(&[]), dir.path())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.contains("the file is cut short or damaged"),
+        "{error}"
+    );
+}

@@ -1,5 +1,5 @@
 //! The case file: a TOML description of one native-kernel run, which `orch` renders
-//! from `templates/native/hopper.toml.tera` (every value SI).
+//! from `templates/native/hopper.toml.tera` or `chute.toml.tera` (every value SI).
 //!
 //! Parsing checks every field (unknown keys are errors, so a misspelt key cannot be
 //! silently ignored) and reports errors by key path; the caller adds the file name.

@@ -7,6 +7,11 @@
 //! through the free fall, stream width, fines in the stream's outer layer (the dust
 //! proxy) and the mass held up on the chute.
 //!
+//! Templates: `templates/native/chute.toml.tera` (the kernel's `[[inflow]]`) and
+//! `templates/liggghts/chute.in.tera` (`fix insert/rate/region`, the same sensor band
+//! dump as the hopper deck); both render the same context, so a design point is the
+//! same case on either.
+//!
 //! The chute's response names live here and nowhere else in `orch`.
 
 use std::path::Path;
@@ -417,7 +422,6 @@ pub fn context(case: &Case) -> Context {
     let sensor_z = g.receiving_plane_z_m();
     let sink_z = sink_z_m(case);
     let half_width = 0.5 * g.width_m + 0.01;
-    let coarse_mass = case.get("density") * std::f64::consts::PI / 6.0 * coarse_diameter.powi(3);
     let fed_mass = case.get("mass_rate") * case.get("feed_time");
     let derived = [
         ("coarse_radius", 0.5 * coarse_diameter),
@@ -456,14 +460,6 @@ pub fn context(case: &Case) -> Context {
     context.insert(
         "sensor_every_int",
         &(case.get("sensor_every").round() as u64),
-    );
-    // Upper bound on the particles fed (all coarse would be the fewest; all fine the
-    // most), for LIGGGHTS's insertion.
-    context.insert(
-        "fed_particles_max",
-        &((fed_mass / coarse_mass * (coarse_diameter / case.get("fine_diameter")).powi(3)).ceil()
-            as u64
-            + 1),
     );
     for (index, name) in ["seed_coarse", "seed_fine", "seed_mix", "seed_insert"]
         .iter()
@@ -669,6 +665,18 @@ mod tests {
             sim.step().unwrap();
         }
         assert!(sim.particles.len() > 10);
+    }
+
+    #[test]
+    fn the_rendered_liggghts_deck_is_the_snapshot() {
+        let dir = tempfile::tempdir().unwrap();
+        let simulation = crate::EquipmentOnSolver::new(&Chute, &crate::liggghts::SOLVER).unwrap();
+        simulation.render(&case_with(&[]), dir.path()).unwrap();
+        let text = std::fs::read_to_string(dir.path().join("chute.in")).unwrap();
+        for file in ["chute.stl", "sink.stl", "belt.stl"] {
+            assert!(dir.path().join(file).is_file(), "{file}");
+        }
+        insta::assert_snapshot!("liggghts_chute_deck", text);
     }
 
     #[test]

@@ -1,13 +1,14 @@
 //! The transfer chute end to end on the native kernel: the chute-profile study runs,
 //! its responses make physical sense (free fall from the lip, energy bound on the
 //! chute, a flatter lip throws slower), and its constrained optimum lies where the
-//! fitted surfaces say; impact speed rises with the drop height and the chute angle.
+//! fitted surfaces say; impact speed rises with the drop height and the chute angle;
+//! LIGGGHTS and the native kernel agree on identical chutes.
 
 use std::time::Instant;
 
 use serde_json::Value;
 
-use crate::support::{count, root, solver_lock, text, Project};
+use crate::support::{count, require_liggghts, root, solver_lock, text, Project};
 
 const G: f64 = 9.81;
 
@@ -159,5 +160,66 @@ fn impact_speed_rises_with_the_drop_height_and_the_chute_angle() {
         let steep = job_at(&status, &[("drop_height", drop), ("chute_angle", 50.0)]);
         assert!(response(steep, "impact_speed") > response(shallow, "impact_speed"));
         assert!(response(steep, "lip_speed") > response(shallow, "lip_speed"));
+    }
+}
+
+/// The status of a two-point study over the lip's control point on `solver`.
+fn lip_study(solver: &str) -> Value {
+    let project = Project::new();
+    let file = project.write(
+        "chute-lip.yaml",
+        &format!(
+            "name: chute-lip\n\
+             equipment: chute\n\
+             solver: {solver}\n\
+             executor: {{max_parallel: 2, time_limit: 10min, retries: 0}}\n\
+             factors:\n\
+             \x20 - {{name: shape_x2, min: -0.02, max: 0.02, unit: m}}\n\
+             design: {{type: full_factorial, levels: 2}}\n\
+             seed: 5\n\
+             responses: [impact_speed, lip_speed, lip_angle, landed_mass]\n"
+        ),
+    );
+    let output = project.run(&["submit", file.to_str().unwrap()]);
+    assert_eq!(output.status.code(), Some(0), "{}", text(&output.stderr));
+    let status = project.status("chute-lip");
+    assert_eq!(count(&status, "succeeded"), 2, "{status:#}");
+    status
+}
+
+#[test]
+fn liggghts_and_the_native_kernel_agree_on_identical_chutes() {
+    if !require_liggghts() {
+        return;
+    }
+    let _lock = solver_lock();
+    let started = Instant::now();
+    let native = lip_study("native");
+    let native_s = started.elapsed().as_secs_f64();
+    let started = Instant::now();
+    let liggghts = lip_study("liggghts");
+    eprintln!(
+        "chute on native {native_s:.1} s, on LIGGGHTS {:.1} s wall (2 runs each, 2 at once)",
+        started.elapsed().as_secs_f64()
+    );
+    for x2 in [-0.02, 0.02] {
+        let (n, l) = (
+            job_at(&native, &[("shape_x2", x2)]),
+            job_at(&liggghts, &[("shape_x2", x2)]),
+        );
+        for name in ["impact_speed", "lip_speed"] {
+            let (a, b) = (response(n, name), response(l, name));
+            let difference = 100.0 * (a / b - 1.0);
+            eprintln!(
+                "X2 = {x2} m: {name} native {a:.4} m/s, LIGGGHTS {b:.4} m/s ({difference:+.1} %)"
+            );
+            assert!(difference.abs() < 10.0, "{name} at X2 = {x2}: {a} vs {b}");
+        }
+        let (a, b) = (response(n, "lip_angle"), response(l, "lip_angle"));
+        eprintln!("X2 = {x2} m: lip_angle native {a:.2}°, LIGGGHTS {b:.2}°");
+        assert!((a - b).abs() < 5.0, "lip_angle at X2 = {x2}: {a} vs {b}");
+        // Both fed the same mass, to within a few particles, and it all landed.
+        let (a, b) = (response(n, "landed_mass"), response(l, "landed_mass"));
+        assert!((a - b).abs() < 0.03 * a, "landed mass {a} vs {b}");
     }
 }

@@ -5,7 +5,8 @@
 //! sensor plane. The responses come from the crossings of that plane
 //! ([`orch_granular::stream`]): impact speed, speed and angle at the lip traced back
 //! through the free fall, stream width, fines in the stream's outer layer (the dust
-//! proxy) and the mass held up on the chute.
+//! proxy), the mass held up on the chute and, where the solver reports wall impacts
+//! (the native kernel), a wall-wear proxy: normal impact energy per unit wall area.
 //!
 //! Templates: `templates/native/chute.toml.tera` (the kernel's `[[inflow]]`) and
 //! `templates/liggghts/chute.in.tera` (`fix insert/rate/region`, the same sensor band
@@ -76,6 +77,11 @@ pub static RESPONSES: &[ResponseSpec] = &[
         "held_up_mass",
         "kg",
         "mass fed (mass_rate × feed_time) that has not reached the receiving plane by the end of the run",
+    ),
+    response(
+        "wall_impact_energy",
+        "J/m^2",
+        "wear proxy: sum over particle-wall impacts of the normal approach energy ½ m v_n², per unit area of the chute's walls (plate, side and back walls); native kernel only",
     ),
     response("landed_mass", "kg", "mass that crossed the receiving plane"),
     response(
@@ -344,6 +350,10 @@ impl Equipment for Chute {
                 responses.push((name.to_string(), value));
             }
         }
+        if let Some(energy) = observations.wall_impact_energy_j {
+            let area = geometry(case).wall_mesh().area_m2();
+            responses.push(("wall_impact_energy".to_string(), energy / area));
+        }
         let mut series = vec![Series {
             name: "landed_mass_over_time".to_string(),
             points: cumulative_mass_series(crossings),
@@ -596,6 +606,7 @@ mod tests {
             &case,
             &Observations {
                 crossings,
+                wall_impact_energy_j: Some(0.5),
                 ..Default::default()
             },
         );
@@ -610,6 +621,10 @@ mod tests {
         assert!((get("lip_speed") - 1.0).abs() < 1e-12);
         assert!(get("lip_angle").abs() < 1e-6);
         assert!((get("held_up_mass") - (0.1 * 0.25 - 1e-4)).abs() < 1e-15);
+        // Walls: plate 0.2 × 0.04, two vertical sides 0.2 cos 40° × 0.03 (a
+        // parallelogram over the profile), back 0.04 × 0.03 m².
+        let area = 0.2 * 0.04 + 2.0 * 0.2 * 40f64.to_radians().cos() * 0.03 + 0.04 * 0.03;
+        assert!((get("wall_impact_energy") - 0.5 / area).abs() < 1e-9);
         for (name, _) in &results.responses {
             assert!(RESPONSES.iter().any(|r| r.name == *name), "{name}");
         }

@@ -98,6 +98,9 @@ pub struct Observations {
     pub solver_loop_time_s: Option<f64>,
     /// Particles × time steps the solver advanced (for throughput figures).
     pub particle_steps: Option<f64>,
+    /// Sum over particle–wall impacts of the normal approach energy `½ m v_n²`, J, when
+    /// the solver reports it (the native kernel does).
+    pub wall_impact_energy_j: Option<f64>,
     /// Time series read from solver output other than the crossings.
     pub series: Vec<Series>,
 }

@@ -11,7 +11,8 @@
 //! 3. **Pair forces** (parallel over blocks of particles): each pair's Hertz–Mindlin
 //!    force into a per-pair slot, histories updated in place.
 //! 4. **Gather** (parallel over particles): gravity, the particle's pair forces in list
-//!    order, and its wall contacts.
+//!    order, and its wall contacts; the normal approach energy of wall contacts that
+//!    begin is added to the wall impact energy (in index order).
 //! 5. **Kick**: `v += dt/2 F/m`, `ω += dt/2 τ/I`; speeds and overlaps beyond their
 //!    bounds stop the run with [`Unstable`].
 //!
@@ -194,6 +195,9 @@ pub struct Simulation {
     timers: StageTimers,
     inflows: Vec<InflowState>,
     next_id: u32,
+    /// Each particle's wall impact energy of the last force computation, J (scratch).
+    impact_energy_j: Vec<Real>,
+    wall_impact_energy_j: Real,
 }
 
 /// Why a simulation cannot be set up.
@@ -304,6 +308,8 @@ impl Simulation {
             particle_steps: 0,
             timers: StageTimers::default(),
             inflows: Vec::new(),
+            impact_energy_j: Vec::new(),
+            wall_impact_energy_j: 0.0,
             next_id: particles.id.last().map_or(1, |&id| id + 1),
             particles,
             config,
@@ -340,6 +346,13 @@ impl Simulation {
     /// Mass the inflows have inserted so far, kg.
     pub fn inserted_mass_kg(&self) -> Real {
         self.inflows.iter().map(InflowState::inserted_mass_kg).sum()
+    }
+
+    /// Sum over every particle–wall impact so far (a contact beginning) of the kinetic
+    /// energy of its normal approach, `½ m v_n²`, J: divided by a wall's area, a proxy
+    /// of its wear.
+    pub fn wall_impact_energy_j(&self) -> Real {
+        self.wall_impact_energy_j
     }
 
     /// Simulated time, s.
@@ -761,6 +774,7 @@ impl Simulation {
         let pairs = &self.pairs;
         let loads = &self.pair_loads;
         let candidates = &self.wall_candidates;
+        self.impact_energy_j.resize(self.particles.len(), 0.0);
         let p = &mut self.particles;
         let (position, velocity, spin, mass, radius, kind) = (
             &p.position_m,
@@ -770,14 +784,15 @@ impl Simulation {
             &p.radius_m,
             &p.kind,
         );
-        (
+        let worst = (
             p.force_n.par_iter_mut(),
             p.torque_n_m.par_iter_mut(),
             self.wall_contacts.par_iter_mut(),
+            self.impact_energy_j.par_iter_mut(),
         )
             .into_par_iter()
             .enumerate()
-            .filter_map(|(i, (force, torque, contacts))| {
+            .filter_map(|(i, (force, torque, contacts, impact))| {
                 // The pair pass left this particle's own row sum here.
                 let mut f = *force;
                 let mut t = *torque;
@@ -801,6 +816,7 @@ impl Simulation {
                 let wall = wall_load(&walls, candidates.of(i), &particle, contacts);
                 *force = f + wall.force_n + mass[i] * gravity;
                 *torque = t + wall.torque_n_m;
+                *impact = wall.impact_energy_j;
                 (wall.worst_overlap_ratio > 0.0).then_some((wall.worst_overlap_ratio, i))
             })
             .reduce_with(|a, b| {
@@ -809,7 +825,10 @@ impl Simulation {
                 } else {
                     a
                 }
-            })
+            });
+        // In index order, whatever the number of threads.
+        self.wall_impact_energy_j += self.impact_energy_j.iter().sum::<Real>();
+        worst
     }
 
     fn kick(&mut self, dt: Real) -> Result<(), Unstable> {

@@ -86,6 +86,7 @@ fn parse(_case: &Case, _sensor: &SensorPlane, run_dir: &Path) -> Result<Observat
         crossings,
         solver_loop_time_s: Some(log.loop_time_s),
         particle_steps: Some(log.particle_steps),
+        wall_impact_energy_j: log.wall_impact_energy_j,
         series: vec![Series {
             name: "kinetic_energy".to_string(),
             points: log.kinetic_energy,

@@ -1,4 +1,4 @@
-//! Equipment: *what* is simulated (a hopper, later a chute or a user's own deck).
+//! Equipment: *what* is simulated (a hopper, a transfer chute, or a user's own deck).
 //!
 //! An equipment owns everything that does not depend on the program that simulates it:
 //! its parameters (names, SI units, ranges, docs), the checks a case must pass, the
@@ -77,7 +77,7 @@ pub trait Equipment: Send + Sync {
 }
 
 /// Every equipment `orch` knows, the default ([`DEFAULT_EQUIPMENT`]) first.
-pub static EQUIPMENT: &[&dyn Equipment] = &[&crate::hopper::Hopper];
+pub static EQUIPMENT: &[&dyn Equipment] = &[&crate::hopper::Hopper, &crate::chute::Chute];
 
 /// The equipment a study gets when it names none.
 pub const DEFAULT_EQUIPMENT: &str = "hopper";

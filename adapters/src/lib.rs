@@ -1,7 +1,7 @@
 //! Equipment, solvers and stages for `orch`: the seam between *what* is simulated and
 //! *which program* simulates it.
 //!
-//! - An [`Equipment`] (the [`hopper::Hopper`] first) owns its parameters
+//! - An [`Equipment`] (the [`hopper::Hopper`], the [`chute::Chute`]) owns its parameters
 //!   ([`ParameterSpec`]), checks, template context, geometry files, sensor plane and
 //!   responses ([`ResponseSpec`]).
 //! - A [`DemSolver`] (LIGGGHTS, YADE, the native kernel) is a descriptor: deck
@@ -16,6 +16,7 @@
 //! The orchestrator knows equipment, solvers and stages only through these types and
 //! the registries [`EQUIPMENT`], [`SOLVERS`] and [`STAGES`].
 
+pub mod chute;
 pub mod custom;
 pub mod dump;
 pub mod equipment;
@@ -97,6 +98,9 @@ pub struct Observations {
     pub solver_loop_time_s: Option<f64>,
     /// Particles × time steps the solver advanced (for throughput figures).
     pub particle_steps: Option<f64>,
+    /// Sum over particle–wall impacts of the normal approach energy `½ m v_n²`, J, when
+    /// the solver reports it (the native kernel does).
+    pub wall_impact_energy_j: Option<f64>,
     /// Time series read from solver output other than the crossings.
     pub series: Vec<Series>,
 }

@@ -1,5 +1,5 @@
 //! The case file: a TOML description of one native-kernel run, which `orch` renders
-//! from `templates/native/hopper.toml.tera` (every value SI).
+//! from `templates/native/hopper.toml.tera` or `chute.toml.tera` (every value SI).
 //!
 //! Parsing checks every field (unknown keys are errors, so a misspelt key cannot be
 //! silently ignored) and reports errors by key path; the caller adds the file name.
@@ -8,6 +8,7 @@
 
 use serde::Deserialize;
 
+use crate::inflow::Inflow;
 use crate::insert::{counts_from_mass_fractions, insert, Region};
 use crate::material::{Material, ParticleType};
 use crate::math::{Real, Vec3, STANDARD_GRAVITY_M_S2};
@@ -30,8 +31,11 @@ pub struct Case {
     /// Walls.
     #[serde(default)]
     pub meshes: Vec<MeshEntry>,
-    /// Particles inserted at the start.
-    pub insert: Insert,
+    /// Particles inserted at the start (none when absent).
+    pub insert: Option<Insert>,
+    /// Continuous inflows (`[[inflow]]`), fed while the run goes on.
+    #[serde(default)]
+    pub inflow: Vec<InflowEntry>,
     /// Plane whose downward crossings are recorded.
     pub sensor: Option<Plane>,
     /// Plane below which particles are removed and counted as discharged.
@@ -186,6 +190,41 @@ pub struct Insert {
     pub region: RegionEntry,
 }
 
+/// `[[inflow]]`: a mixture fed through a region at a mass rate over a time window
+/// ([`crate::inflow`]). For example, 0.2 kg/s of a half-and-half mixture for 0.5 s
+/// through a thin box, moving at 1 m/s along x:
+///
+/// ```toml
+/// [[inflow]]
+/// mass_rate = 0.2
+/// mass_fractions = [0.5, 0.5]
+/// velocity = [1.0, 0.0, 0.0]
+/// start = 0.0
+/// end = 0.5
+/// region = { kind = "box", min = [0.0, -0.02, 0.1], max = [0.01, 0.02, 0.12] }
+/// ```
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct InflowEntry {
+    /// Mass fed per second, kg/s.
+    pub mass_rate: Real,
+    /// Mass fraction of each type, in type order; sums to 1.
+    pub mass_fractions: Vec<Real>,
+    /// Velocity of the inserted particles, m/s.
+    #[serde(default)]
+    pub velocity: [Real; 3],
+    /// Start of the window, s (default 0).
+    #[serde(default)]
+    pub start: Real,
+    /// End of the window, s.
+    pub end: Real,
+    /// Time between batches, s; default: the time the velocity takes to cross the
+    /// region (required when the velocity is zero).
+    pub interval: Option<Real>,
+    /// Where particles appear; it must be clear of walls.
+    pub region: RegionEntry,
+}
+
 /// An insertion region.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields, tag = "kind", rename_all = "snake_case")]
@@ -327,19 +366,27 @@ impl Case {
             check_material(&format!("types[{k}]"), &t.material)?;
         }
         check_material("wall_material", &self.wall_material)?;
-        if self.insert.mass_fractions.len() != self.types.len() {
+        for (k, entry) in self.inflow.iter().enumerate() {
+            let inflow = self.inflow_of(k, entry)?;
+            inflow
+                .validate(&self.particle_types())
+                .map_err(|e| invalid(format!("inflow[{k}]"), e.to_string()))?;
+        }
+        let Some(insert) = &self.insert else {
+            return self.validate_meshes();
+        };
+        if insert.mass_fractions.len() != self.types.len() {
             return Err(invalid(
                 "insert.mass_fractions",
                 format!(
                     "expected one fraction per type ({}), got {}",
                     self.types.len(),
-                    self.insert.mass_fractions.len()
+                    insert.mass_fractions.len()
                 ),
             ));
         }
-        let sum: Real = self.insert.mass_fractions.iter().sum();
-        if self
-            .insert
+        let sum: Real = insert.mass_fractions.iter().sum();
+        if insert
             .mass_fractions
             .iter()
             .any(|w| !(0.0..=1.0).contains(w))
@@ -349,10 +396,14 @@ impl Case {
                 "insert.mass_fractions",
                 format!(
                     "expected fractions in [0, 1] that sum to 1, got {:?} (sum {sum})",
-                    self.insert.mass_fractions
+                    insert.mass_fractions
                 ),
             ));
         }
+        self.validate_meshes()
+    }
+
+    fn validate_meshes(&self) -> Result<(), CaseError> {
         for (k, mesh) in self.meshes.iter().enumerate() {
             match &mesh.motion {
                 Some(MotionEntry::Vibration {
@@ -377,6 +428,39 @@ impl Case {
             }
         }
         Ok(())
+    }
+
+    /// The inflow of entry `k`, its region, interval and seed resolved.
+    fn inflow_of(&self, k: usize, entry: &InflowEntry) -> Result<Inflow, CaseError> {
+        let field = |name: &str| format!("inflow[{k}].{name}");
+        finite(&field("velocity"), &entry.velocity)?;
+        let region = region(&entry.region);
+        let velocity = Vec3::from(entry.velocity);
+        let interval = match entry.interval {
+            Some(interval) => {
+                finite_positive(&field("interval"), interval)?;
+                interval
+            }
+            None => Inflow::crossing_time_s(&region, velocity).ok_or_else(|| {
+                invalid(
+                    field("interval"),
+                    "required when the velocity is zero (the default is the time the velocity takes to cross the region)",
+                )
+            })?,
+        };
+        Ok(Inflow {
+            region,
+            mass_fractions: entry.mass_fractions.clone(),
+            mass_rate_kg_s: entry.mass_rate,
+            velocity_m_s: velocity,
+            start_s: entry.start,
+            end_s: entry.end,
+            interval_s: interval,
+            seed: self
+                .run
+                .seed
+                .wrapping_add(0x9E37_79B9_7F4A_7C15u64.wrapping_mul(k as u64 + 1)),
+        })
     }
 
     /// The particle types.
@@ -438,28 +522,19 @@ impl Case {
     /// [`Case::wall_mesh`], in case order).
     pub fn build(&self, walls: Vec<WallMesh>) -> Result<Simulation, CaseError> {
         let types = self.particle_types();
-        let counts =
-            counts_from_mass_fractions(&types, &self.insert.mass_fractions, self.insert.count);
-        let region = match self.insert.region {
-            RegionEntry::Cylinder {
-                centre,
-                radius,
-                z_min,
-                z_max,
-            } => Region::Cylinder {
-                centre_m: centre,
-                radius_m: radius,
-                z_min_m: z_min,
-                z_max_m: z_max,
-            },
-            RegionEntry::Box { min, max } => Region::Box {
-                min_m: Vec3::from(min),
-                max_m: Vec3::from(max),
-            },
-        };
         let mut particles = Particles::default();
-        insert(&mut particles, &types, &counts, &region, self.run.seed, 1)
+        if let Some(entry) = &self.insert {
+            let counts = counts_from_mass_fractions(&types, &entry.mass_fractions, entry.count);
+            insert(
+                &mut particles,
+                &types,
+                &counts,
+                &region(&entry.region),
+                self.run.seed,
+                1,
+            )
             .map_err(|e| invalid("insert", e.to_string()))?;
+        }
         let largest = types.iter().map(|t| t.radius_m).fold(0.0, Real::max);
         let config = Config {
             timestep_s: self.timestep_s(),
@@ -483,6 +558,11 @@ impl Case {
         }
         if let Some(sink) = &self.sink {
             simulation.set_sink_plane(sink.z);
+        }
+        for (k, entry) in self.inflow.iter().enumerate() {
+            simulation
+                .add_inflow(self.inflow_of(k, entry)?)
+                .map_err(|e| invalid(format!("inflow[{k}]"), e.to_string()))?;
         }
         Ok(simulation)
     }
@@ -514,6 +594,26 @@ fn check_material(prefix: &str, m: &WallMaterial) -> Result<(), CaseError> {
         }
     }
     Ok(())
+}
+
+fn region(entry: &RegionEntry) -> Region {
+    match *entry {
+        RegionEntry::Cylinder {
+            centre,
+            radius,
+            z_min,
+            z_max,
+        } => Region::Cylinder {
+            centre_m: centre,
+            radius_m: radius,
+            z_min_m: z_min,
+            z_max_m: z_max,
+        },
+        RegionEntry::Box { min, max } => Region::Box {
+            min_m: Vec3::from(min),
+            max_m: Vec3::from(max),
+        },
+    }
 }
 
 fn material(m: &WallMaterial) -> Material {

@@ -33,9 +33,25 @@ pub enum Region {
 }
 
 impl Region {
+    /// The region's axis-aligned bounding box (lower, upper corner), m.
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        match *self {
+            Region::Cylinder {
+                centre_m,
+                radius_m,
+                z_min_m,
+                z_max_m,
+            } => (
+                Vec3::new(centre_m[0] - radius_m, centre_m[1] - radius_m, z_min_m),
+                Vec3::new(centre_m[0] + radius_m, centre_m[1] + radius_m, z_max_m),
+            ),
+            Region::Box { min_m, max_m } => (min_m, max_m),
+        }
+    }
+
     /// A uniformly random centre for a sphere of `radius_m` wholly inside, or `None`
     /// when no such sphere fits.
-    fn sample(&self, radius_m: Real, rng: &mut ChaCha8Rng) -> Option<Vec3> {
+    pub(crate) fn sample(&self, radius_m: Real, rng: &mut ChaCha8Rng) -> Option<Vec3> {
         match *self {
             Region::Cylinder {
                 centre_m,
@@ -176,13 +192,13 @@ pub fn insert(
 }
 
 /// A hash grid of placed centres for overlap checks during insertion.
-struct OccupancyGrid {
+pub(crate) struct OccupancyGrid {
     cell_m: Real,
     cells: std::collections::HashMap<[i64; 3], Vec<usize>>,
 }
 
 impl OccupancyGrid {
-    fn new(cell_m: Real) -> Self {
+    pub(crate) fn new(cell_m: Real) -> Self {
         Self {
             cell_m,
             cells: Default::default(),
@@ -193,11 +209,16 @@ impl OccupancyGrid {
         [0, 1, 2].map(|k| (p[k] / self.cell_m).floor() as i64)
     }
 
-    fn add(&mut self, index: usize, centre: Vec3) {
+    pub(crate) fn add(&mut self, index: usize, centre: Vec3) {
         self.cells.entry(self.cell(centre)).or_default().push(index);
     }
 
-    fn overlaps(&self, placed: &[(Vec3, Real, usize)], centre: Vec3, radius: Real) -> bool {
+    pub(crate) fn overlaps(
+        &self,
+        placed: &[(Vec3, Real, usize)],
+        centre: Vec3,
+        radius: Real,
+    ) -> bool {
         let [cx, cy, cz] = self.cell(centre);
         for dx in -1..=1 {
             for dy in -1..=1 {

@@ -3,7 +3,8 @@
 //! Spheres of several types interact through LIGGGHTS's Hertz–Mindlin contact law
 //! ([`force`]) with each other and with rigid, possibly moving triangle-mesh walls
 //! ([`mesh`], [`walls`]). [`simulation::Simulation`] advances them by velocity Verlet;
-//! [`insert`] fills a region without overlaps; [`case`] reads the case file format
+//! [`insert`] fills a region without overlaps; [`inflow`] feeds a mixture through a
+//! region at a mass rate over a time window; [`case`] reads the case file format
 //! (TOML) that `orch` renders and [`output`] writes LIGGGHTS-compatible dumps, VTK
 //! files and the sensor's crossings.
 //!
@@ -17,6 +18,7 @@
 pub mod case;
 pub mod contact;
 pub mod force;
+pub mod inflow;
 pub mod insert;
 pub mod material;
 pub mod math;

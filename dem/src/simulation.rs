@@ -5,12 +5,14 @@
 //!    arrivals below the sink are recorded here, with the crossing time and position
 //!    interpolated within the step.
 //! 2. **Neighbours**: when some particle has moved, relative to the walls, more than
-//!    half the skin since the last rebuild, particles that reached the sink are removed
-//!    and the pair list and wall candidates are rebuilt.
+//!    half the skin since the last rebuild, or an inflow's batch is due, particles that
+//!    reached the sink are removed, the inflows' batches are inserted
+//!    ([`crate::inflow`]), and the pair list and wall candidates are rebuilt.
 //! 3. **Pair forces** (parallel over blocks of particles): each pair's Hertz–Mindlin
 //!    force into a per-pair slot, histories updated in place.
 //! 4. **Gather** (parallel over particles): gravity, the particle's pair forces in list
-//!    order, and its wall contacts.
+//!    order, and its wall contacts; the normal approach energy of wall contacts that
+//!    begin is added to the wall impact energy (in index order).
 //! 5. **Kick**: `v += dt/2 F/m`, `ω += dt/2 τ/I`; speeds and overlaps beyond their
 //!    bounds stop the run with [`Unstable`].
 //!
@@ -22,6 +24,7 @@ use std::time::{Duration, Instant};
 use rayon::prelude::*;
 
 use crate::force::{hertz_mindlin, ContactGeometry};
+use crate::inflow::{Inflow, InflowError, InflowState};
 use crate::material::{ContactTable, Material, ParticleType};
 use crate::math::{Real, Vec3};
 use crate::mesh::WallMesh;
@@ -190,6 +193,11 @@ pub struct Simulation {
     removed_mass_kg: Real,
     particle_steps: u64,
     timers: StageTimers,
+    inflows: Vec<InflowState>,
+    next_id: u32,
+    /// Each particle's wall impact energy of the last force computation, J (scratch).
+    impact_energy_j: Vec<Real>,
+    wall_impact_energy_j: Real,
 }
 
 /// Why a simulation cannot be set up.
@@ -299,6 +307,10 @@ impl Simulation {
             removed_mass_kg: 0.0,
             particle_steps: 0,
             timers: StageTimers::default(),
+            inflows: Vec::new(),
+            impact_energy_j: Vec::new(),
+            wall_impact_energy_j: 0.0,
+            next_id: particles.id.last().map_or(1, |&id| id + 1),
             particles,
             config,
         };
@@ -316,6 +328,31 @@ impl Simulation {
     /// Removes particles whose centre falls below `z = z_m` (counted as discharged).
     pub fn set_sink_plane(&mut self, z_m: Real) {
         self.sink_z_m = Some(z_m);
+    }
+
+    /// Feeds `inflow` from now on (its batches are inserted as the run reaches them).
+    pub fn add_inflow(&mut self, inflow: Inflow) -> Result<(), InflowError> {
+        inflow.validate(&self.types)?;
+        self.inflows
+            .push(InflowState::new(inflow, self.types.len()));
+        Ok(())
+    }
+
+    /// The inflows and how much each has inserted.
+    pub fn inflows(&self) -> &[InflowState] {
+        &self.inflows
+    }
+
+    /// Mass the inflows have inserted so far, kg.
+    pub fn inserted_mass_kg(&self) -> Real {
+        self.inflows.iter().map(InflowState::inserted_mass_kg).sum()
+    }
+
+    /// Sum over every particle–wall impact so far (a contact beginning) of the kinetic
+    /// energy of its normal approach, `½ m v_n²`, J: divided by a wall's area, a proxy
+    /// of its wear.
+    pub fn wall_impact_energy_j(&self) -> Real {
+        self.wall_impact_energy_j
     }
 
     /// Simulated time, s.
@@ -385,7 +422,8 @@ impl Simulation {
         self.particle_steps += self.particles.len() as u64;
         self.timers.integrate += started.elapsed();
 
-        if self.needs_rebuild(moved) {
+        let inflow_due = self.inflows.iter().any(|f| f.is_due(self.time_s));
+        if inflow_due || self.needs_rebuild(moved) {
             let started = Instant::now();
             self.rebuild();
             self.timers.neighbours += started.elapsed();
@@ -493,7 +531,8 @@ impl Simulation {
         moved_m + wall_moved > 0.5 * self.config.skin_m
     }
 
-    /// Removes particles past the sink, rebuilds the pair list and wall candidates.
+    /// Removes particles past the sink, inserts the inflows' due batches, rebuilds the
+    /// pair list and wall candidates.
     fn rebuild(&mut self) {
         let former_ids = self.particles.id.clone();
         let former = if self.leaving_count > 0 {
@@ -510,6 +549,22 @@ impl Simulation {
         } else {
             (0..self.particles.len() as u32).collect()
         };
+        // New particles come last, with ids above every other; `former` has no entry
+        // for them, so they start without history.
+        let mut inflows = std::mem::take(&mut self.inflows);
+        for inflow in &mut inflows {
+            inflow.insert_due(
+                self.time_s,
+                &self.types,
+                &mut self.particles,
+                &mut self.next_id,
+            );
+        }
+        self.inflows = inflows;
+        let n = self.particles.len();
+        self.wall_contacts.resize(n, WallContacts::default());
+        self.crossed.resize(n, false);
+        self.leaving.resize(n, false);
         let p = &self.particles;
         self.pairs = PairList::build(
             &self.grid,
@@ -719,6 +774,7 @@ impl Simulation {
         let pairs = &self.pairs;
         let loads = &self.pair_loads;
         let candidates = &self.wall_candidates;
+        self.impact_energy_j.resize(self.particles.len(), 0.0);
         let p = &mut self.particles;
         let (position, velocity, spin, mass, radius, kind) = (
             &p.position_m,
@@ -728,14 +784,15 @@ impl Simulation {
             &p.radius_m,
             &p.kind,
         );
-        (
+        let worst = (
             p.force_n.par_iter_mut(),
             p.torque_n_m.par_iter_mut(),
             self.wall_contacts.par_iter_mut(),
+            self.impact_energy_j.par_iter_mut(),
         )
             .into_par_iter()
             .enumerate()
-            .filter_map(|(i, (force, torque, contacts))| {
+            .filter_map(|(i, (force, torque, contacts, impact))| {
                 // The pair pass left this particle's own row sum here.
                 let mut f = *force;
                 let mut t = *torque;
@@ -759,6 +816,7 @@ impl Simulation {
                 let wall = wall_load(&walls, candidates.of(i), &particle, contacts);
                 *force = f + wall.force_n + mass[i] * gravity;
                 *torque = t + wall.torque_n_m;
+                *impact = wall.impact_energy_j;
                 (wall.worst_overlap_ratio > 0.0).then_some((wall.worst_overlap_ratio, i))
             })
             .reduce_with(|a, b| {
@@ -767,7 +825,10 @@ impl Simulation {
                 } else {
                     a
                 }
-            })
+            });
+        // In index order, whatever the number of threads.
+        self.wall_impact_energy_j += self.impact_energy_j.iter().sum::<Real>();
+        worst
     }
 
     fn kick(&mut self, dt: Real) -> Result<(), Unstable> {

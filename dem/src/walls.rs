@@ -232,6 +232,10 @@ pub struct WallLoad {
     pub torque_n_m: Vec3,
     /// Largest overlap divided by the radius (1 when the centre is on the wall).
     pub worst_overlap_ratio: Real,
+    /// Kinetic energy of the normal approach, `½ m v_n²`, of the contacts that began
+    /// this step (an impact; a contact that moves on to a nearly parallel facet is the
+    /// same contact), J: the wall-wear proxy's increment.
+    pub impact_energy_j: Real,
 }
 
 #[derive(Clone, Copy)]
@@ -255,6 +259,7 @@ pub fn wall_load(
         force_n: Vec3::zeros(),
         torque_n_m: Vec3::zeros(),
         worst_overlap_ratio: 0.0,
+        impact_energy_j: 0.0,
     };
     if candidates.is_empty() {
         contacts.len = 0;
@@ -349,6 +354,7 @@ pub fn wall_load(
     // Histories: the same feature first, else a nearly parallel contact on the mesh.
     let mut shears = [Vec3::zeros(); MAX_WALL_CONTACTS];
     let mut matched = [false; MAX_WALL_CONTACTS];
+    let mut continued = [false; MAX_WALL_CONTACTS];
     for (slot, touch) in kept[..n_kept].iter().flatten().enumerate() {
         if let Some(k) = previous
             .as_slice()
@@ -358,6 +364,7 @@ pub fn wall_load(
             shears[slot] = previous.items[k].shear_m;
             inherited[k] = true;
             matched[slot] = true;
+            continued[slot] = true;
         }
     }
     for (slot, touch) in kept[..n_kept].iter().flatten().enumerate() {
@@ -381,6 +388,7 @@ pub fn wall_load(
         if let Some((k, c)) = best {
             shears[slot] = c.shear_m;
             inherited[k] = true;
+            continued[slot] = true;
         }
     }
 
@@ -390,6 +398,12 @@ pub fn wall_load(
         let wall_velocity = walls.velocities_m_s[touch.mesh as usize];
         let contact_velocity =
             particle.velocity_m_s - r * particle.angular_velocity.cross(&n) - wall_velocity;
+        if !continued[slot] {
+            let approach = -contact_velocity.dot(&n);
+            if approach > 0.0 {
+                load.impact_energy_j += 0.5 * particle.mass_kg * approach * approach;
+            }
+        }
         let mut shear = shears[slot];
         let geometry = ContactGeometry {
             normal: n,

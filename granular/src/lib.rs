@@ -6,6 +6,8 @@
 //!
 //! - [`geometry`]: the conical hopper, its outlet plug, an internal valve and sensor
 //!   planes as triangle meshes ([`mesh::TriMesh`]).
+//! - [`chute`]: the transfer chute (a B-spline plate, side walls, receiving plane).
+//! - [`stream`]: responses of the stream a chute throws onto its receiving plane.
 //! - [`profile`]: the cone's wall as a clamped B-spline moved by the shape offsets.
 //! - [`air`]: the drag of a falling particle stream on the air, for the CFD stage.
 //! - [`crossing`]: turns particle sightings near a sensor plane into one crossing per
@@ -14,13 +16,16 @@
 //!   layers of the stream (SCIENCE.md §4), and the reference formulas.
 
 pub mod air;
+pub mod chute;
 pub mod crossing;
 pub mod geometry;
 pub mod mesh;
 pub mod profile;
 pub mod reference;
 pub mod responses;
+pub mod stream;
 
+pub use chute::{ChuteError, ChuteGeometry};
 pub use crossing::{Crossing, CrossingDetector, Sighting};
 pub use geometry::{GeometryError, HopperGeometry};
 pub use mesh::TriMesh;

@@ -174,17 +174,22 @@ impl ConeProfile {
 
     /// Clamped uniform knot vector for four control points.
     fn knots(&self) -> Vec<f64> {
-        let p = self.degree;
-        let interior = 4 - p - 1;
-        let mut knots = vec![0.0; p + 1];
-        knots.extend((1..=interior).map(|i| i as f64 / (interior + 1) as f64));
-        knots.extend(std::iter::repeat_n(1.0, p + 1));
-        knots
+        clamped_knots(self.degree)
     }
 }
 
+/// Clamped uniform knot vector for four control points and a degree of 2 or 3.
+pub(crate) fn clamped_knots(degree: usize) -> Vec<f64> {
+    let p = degree;
+    let interior = 4 - p - 1;
+    let mut knots = vec![0.0; p + 1];
+    knots.extend((1..=interior).map(|i| i as f64 / (interior + 1) as f64));
+    knots.extend(std::iter::repeat_n(1.0, p + 1));
+    knots
+}
+
 /// De Boor's algorithm: the B-spline of `degree` over `control` and `knots` at `t`.
-fn de_boor(control: &[(f64, f64)], knots: &[f64], degree: usize, t: f64) -> (f64, f64) {
+pub(crate) fn de_boor(control: &[(f64, f64)], knots: &[f64], degree: usize, t: f64) -> (f64, f64) {
     let n = control.len();
     let t = t.clamp(0.0, 1.0);
     // The knot span [knots[k], knots[k + 1]) holding t; t = 1 belongs to the last one.

@@ -85,6 +85,25 @@ fn production_sources(dir: &Path) -> Vec<(PathBuf, String)> {
     found
 }
 
+/// Production files under `orchestrator/src` and `adapters/src`, other than `allowed`,
+/// that spell one of `names` as a string literal.
+fn spelled_outside(names: &[&str], allowed: &[PathBuf]) -> Vec<String> {
+    let mut offenders = Vec::new();
+    for dir in ["orchestrator/src", "adapters/src"] {
+        for (path, text) in production_sources(&root().join(dir)) {
+            if allowed.contains(&path) {
+                continue;
+            }
+            for name in names {
+                if text.contains(&format!("\"{name}\"")) {
+                    offenders.push(format!("{} spells \"{name}\"", path.display()));
+                }
+            }
+        }
+    }
+    offenders
+}
+
 /// The equipment seam: the driver, study validation, rounds, status and CLI ask the
 /// study's equipment for response names, so no hopper response name appears as a
 /// string outside the hopper's own module. The exception is a stage's declared
@@ -100,22 +119,25 @@ fn no_hopper_response_name_is_spelled_outside_the_hopper_module() {
         root().join("adapters/src/hopper.rs"),
         root().join("adapters/src/openfoam/mod.rs"),
     ];
-    let mut offenders = Vec::new();
-    for dir in ["orchestrator/src", "adapters/src"] {
-        for (path, text) in production_sources(&root().join(dir)) {
-            if allowed.contains(&path) {
-                continue;
-            }
-            for name in &names {
-                if text.contains(&format!("\"{name}\"")) {
-                    offenders.push(format!("{} spells \"{name}\"", path.display()));
-                }
-            }
-        }
-    }
+    let offenders = spelled_outside(&names, &allowed);
     assert!(
         offenders.is_empty(),
         "hopper response names outside the hopper module (ask the study's equipment instead):\n{}",
+        offenders.join("\n")
+    );
+}
+
+/// The same for the chute: its response names live in `adapters/src/chute.rs` only.
+#[test]
+fn no_chute_response_name_is_spelled_outside_the_chute_module() {
+    let names: Vec<&str> = orch_adapters::chute::RESPONSES
+        .iter()
+        .map(|r| r.name.as_ref())
+        .collect();
+    let offenders = spelled_outside(&names, &[root().join("adapters/src/chute.rs")]);
+    assert!(
+        offenders.is_empty(),
+        "chute response names outside the chute module (ask the study's equipment instead):\n{}",
         offenders.join("\n")
     );
 }

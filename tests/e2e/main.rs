@@ -6,6 +6,7 @@
 //! machine's cores.
 
 mod architecture;
+mod chute;
 mod concurrency;
 mod crash_resume;
 mod custom;

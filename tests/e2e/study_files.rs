@@ -201,6 +201,13 @@ fn params_and_template_show_list_what_a_study_can_use() {
     assert!(table.contains("rendered as hopper.toml"), "{table}");
     let output = project.run(&["params", "cfd"]);
     assert!(text(&output.stdout).contains("air_entrained_flow"));
+    let output = project.run(&["params", "chute", "--solver", "native"]);
+    let table = text(&output.stdout);
+    assert!(
+        table.contains("impact_speed") && table.contains("drop_height"),
+        "{table}"
+    );
+    assert!(table.contains("rendered as chute.toml"), "{table}");
 
     let output = project.run(&["template", "show", "hopper", "--solver", "liggghts"]);
     assert!(output.status.success());
@@ -212,7 +219,8 @@ fn params_and_template_show_list_what_a_study_can_use() {
     let output = project.run(&["params", "silo"]);
     assert_eq!(output.status.code(), Some(2));
     assert!(
-        text(&output.stderr).contains("no equipment or stage `silo`; expected one of: hopper, cfd"),
+        text(&output.stderr)
+            .contains("no equipment or stage `silo`; expected one of: hopper, chute, cfd"),
         "{}",
         text(&output.stderr)
     );

@@ -1,10 +1,13 @@
-//! LIGGGHTS (Debian `liggghts` 3.8.0): a conical hopper discharge deck.
+//! LIGGGHTS (Debian `liggghts` 3.8.0): a conical hopper discharge deck and a transfer
+//! chute deck.
 //!
 //! The hopper template `templates/liggghts/hopper.in.tera` fills the hopper with a
 //! bidisperse mixture while a plug closes the outlet, removes the plug, vibrates the
 //! hopper (and its internal valve) vertically, and dumps every particle in a thin band
 //! around the sensor plane every `sensor_every` steps. The parser turns those
-//! sightings into crossings of the plane ([`SOLVER`]'s parser). Facts this relies on are measured in
+//! sightings into crossings of the plane ([`SOLVER`]'s parser). The chute template
+//! `templates/liggghts/chute.in.tera` feeds the stream with `fix insert/rate/region`
+//! and dumps the same band around its receiving plane. Facts this relies on are measured in
 //! `shared/solvers/README.md`: `quit` exits 1, so the deck ends by running out of input;
 //! seeds must be primes above 10000; the mass-flow file has no time column, so the
 //! sensor dump (whose time step gives the time) is what we read.
@@ -29,11 +32,18 @@ pub static SOLVER: DemSolver = DemSolver {
     deck_extension: "in",
     log_file: LOG_FILE,
     install_hint: "apt-get install -y liggghts",
-    templates: &[SolverTemplate {
-        equipment: "hopper",
-        path: "templates/liggghts/hopper.in.tera",
-        text: include_str!("../../../templates/liggghts/hopper.in.tera"),
-    }],
+    templates: &[
+        SolverTemplate {
+            equipment: "hopper",
+            path: "templates/liggghts/hopper.in.tera",
+            text: include_str!("../../../templates/liggghts/hopper.in.tera"),
+        },
+        SolverTemplate {
+            equipment: "chute",
+            path: "templates/liggghts/chute.in.tera",
+            text: include_str!("../../../templates/liggghts/chute.in.tera"),
+        },
+    ],
     command,
     parse,
 };
@@ -85,6 +95,7 @@ fn parse(case: &Case, sensor: &SensorPlane, run_dir: &Path) -> Result<Observatio
         crossings,
         solver_loop_time_s: Some(log.loop_time_s),
         particle_steps: Some(log.particle_steps),
+        wall_impact_energy_j: None,
         series: vec![crate::Series {
             name: "kinetic_energy".to_string(),
             points: kinetic_energy,

@@ -1,6 +1,7 @@
 //! Reader of `log.native`, the native kernel's log: a thermo table
 //! (`step time_s particles kinetic_energy_J discharged_mass_kg`), then
-//! `Loop time of <s> s on <n> threads for <steps> steps with <p> particle-steps`.
+//! `Loop time of <s> s on <n> threads for <steps> steps with <p> particle-steps`, and
+//! `Wall impact energy of <J> J` (the sum of `½ m v_n²` over particle–wall impacts).
 //! A run that stopped with an error has an `ERROR:` line and no loop line.
 
 use std::io::BufRead;
@@ -21,6 +22,8 @@ pub struct NativeLog {
     pub kinetic_energy: Vec<(f64, f64)>,
     /// `(time s, discharged mass kg)` from the thermo table.
     pub discharged_mass: Vec<(f64, f64)>,
+    /// Sum over particle–wall impacts of `½ m v_n²`, J (absent from older logs).
+    pub wall_impact_energy_j: Option<f64>,
 }
 
 /// The thermo table's header.
@@ -41,6 +44,15 @@ pub fn read_log<R: BufRead>(reader: R, path: &Path) -> Result<NativeLog, ParseEr
             in_table = true;
         } else if let Some(error) = trimmed.strip_prefix("ERROR: ") {
             return Err(malformed(number, format!("the run failed: {error}")));
+        } else if let Some(rest) = trimmed.strip_prefix("Wall impact energy of ") {
+            let value = rest
+                .strip_suffix(" J")
+                .and_then(|v| v.trim().parse::<f64>().ok())
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| {
+                    malformed(number, format!("cannot read the impact line `{trimmed}`"))
+                })?;
+            log.wall_impact_energy_j = Some(value);
         } else if let Some(rest) = trimmed.strip_prefix("Loop time of ") {
             let words: Vec<&str> = rest.split_whitespace().collect();
             // <s> s on <n> threads for <steps> steps with <p> particle-steps

@@ -1,5 +1,5 @@
-//! orch's native DEM kernel (`orch-dem`, crate `orch-dem`): the hopper case as a TOML
-//! case file.
+//! orch's native DEM kernel (`orch-dem`, crate `orch-dem`): the hopper and the chute
+//! as TOML case files.
 //!
 //! The default template `templates/native/hopper.toml.tera` describes the same case as
 //! the LIGGGHTS deck (same parameters, the same derived values from
@@ -29,11 +29,18 @@ pub static SOLVER: DemSolver = DemSolver {
     deck_extension: "toml",
     log_file: LOG_FILE,
     install_hint: "cargo install --path orchestrator (it installs orch-dem beside orch)",
-    templates: &[SolverTemplate {
-        equipment: "hopper",
-        path: "templates/native/hopper.toml.tera",
-        text: include_str!("../../../templates/native/hopper.toml.tera"),
-    }],
+    templates: &[
+        SolverTemplate {
+            equipment: "hopper",
+            path: "templates/native/hopper.toml.tera",
+            text: include_str!("../../../templates/native/hopper.toml.tera"),
+        },
+        SolverTemplate {
+            equipment: "chute",
+            path: "templates/native/chute.toml.tera",
+            text: include_str!("../../../templates/native/chute.toml.tera"),
+        },
+    ],
     command,
     parse,
 };
@@ -82,6 +89,7 @@ fn parse(_case: &Case, _sensor: &SensorPlane, run_dir: &Path) -> Result<Observat
         crossings,
         solver_loop_time_s: Some(log.loop_time_s),
         particle_steps: Some(log.particle_steps),
+        wall_impact_energy_j: log.wall_impact_energy_j,
         series: vec![Series {
             name: "kinetic_energy".to_string(),
             points: log.kinetic_energy,

@@ -68,6 +68,22 @@ fn log_gives_loop_time_work_and_series() {
     assert_eq!(log.particle_steps, 5000.0);
     assert_eq!(log.kinetic_energy[2], (0.04, 2.5e-4));
     assert_eq!(log.discharged_mass[2], (0.04, 1.2e-4));
+    assert_eq!(log.wall_impact_energy_j, None);
+}
+
+#[test]
+fn the_wall_impact_line_is_read_and_a_bad_one_is_an_error() {
+    let with = format!("{LOG}Wall impact energy of 1.250000000e-3 J\n");
+    let log = read_log(Cursor::new(with), Path::new("log.native")).unwrap();
+    assert_eq!(log.wall_impact_energy_j, Some(1.25e-3));
+    let bad = format!("{LOG}Wall impact energy of lots J\n");
+    let error = read_log(Cursor::new(bad), Path::new("log.native")).unwrap_err();
+    assert!(
+        error
+            .to_string()
+            .contains("log.native:7: cannot read the impact line"),
+        "{error}"
+    );
 }
 
 #[test]

@@ -69,6 +69,7 @@ fn parse(_case: &Case, _sensor: &SensorPlane, run_dir: &Path) -> Result<Observat
         crossings,
         solver_loop_time_s: Some(summary.loop_time_s),
         particle_steps: Some(summary.particle_steps),
+        wall_impact_energy_j: None,
         series: Vec::new(),
     })
 }

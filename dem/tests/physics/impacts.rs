@@ -93,3 +93,52 @@ fn oblique_impact_in_the_sliding_regime_loses_the_coulomb_impulse() {
     let spin = sim.particles.angular_velocity[0].y;
     assert_relative_eq!(spin, 2.5 * expected_loss / RADIUS, max_relative = 0.02);
 }
+
+/// The wall-wear proxy: a sphere hitting the floor at 1.5 m/s adds `½ m v²` to the
+/// wall impact energy once, however long the contact lasts; the bounce's second
+/// impact (no gravity: none) adds nothing; a sphere resting on the floor under
+/// gravity and sliding across the floor's diagonal edge adds nothing either.
+#[test]
+fn an_impact_adds_its_normal_kinetic_energy_to_the_wall_once() {
+    let m = material(0.6, 0.3);
+    let kind = sphere(RADIUS, m);
+    let p = particles(
+        &kind,
+        &[Vec3::new(0.0, 0.0, 0.00102)],
+        &[Vec3::new(0.3, 0.0, -1.5)],
+    );
+    let mut sim = Simulation::new(config(2e-7, m), vec![kind], p, vec![floor(0.01)]).unwrap();
+    assert_eq!(sim.wall_impact_energy_j(), 0.0);
+    let height = |s: &Simulation| s.particles.position_m[0].z - RADIUS;
+    run_until(&mut sim, 1_000_000, |s| height(s) < 0.0);
+    let expected = 0.5 * kind.mass_kg() * 1.5 * 1.5;
+    assert_relative_eq!(sim.wall_impact_energy_j(), expected, max_relative = 1e-12);
+    run_until(&mut sim, 1_000_000, |s| height(s) >= 0.0);
+    for _ in 0..1000 {
+        sim.step().unwrap();
+    }
+    assert_relative_eq!(sim.wall_impact_energy_j(), expected, max_relative = 1e-12);
+
+    // At rest on the floor, then pushed along x across the diagonal between its two
+    // triangles: one continuous contact, no impact.
+    let p = particles(
+        &kind,
+        &[Vec3::new(-0.003, 0.002, RADIUS)],
+        &[Vec3::new(0.5, 0.0, 0.0)],
+    );
+    let mut cfg = config(2e-6, m);
+    cfg.gravity_m_s2 = Vec3::new(0.0, 0.0, -9.81);
+    let mut sim = Simulation::new(cfg, vec![kind], p, vec![floor(0.01)]).unwrap();
+    for _ in 0..20_000 {
+        sim.step().unwrap();
+    }
+    // The diagonal is y = x: it crossed at x = 0.002 m.
+    let x = sim.particles.position_m[0].x;
+    assert!(x > 0.003, "it stopped at x = {x} m, short of the diagonal");
+    let settle = 0.5 * kind.mass_kg() * (2.0 * 9.81 * 1e-9);
+    assert!(
+        sim.wall_impact_energy_j() < settle,
+        "{}",
+        sim.wall_impact_energy_j()
+    );
+}

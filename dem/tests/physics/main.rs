@@ -7,6 +7,7 @@ mod determinism;
 mod energy;
 mod impacts;
 mod incline;
+mod inflow;
 mod walls;
 
 use orch_dem::material::{Material, ParticleType};

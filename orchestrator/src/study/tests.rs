@@ -267,7 +267,7 @@ fn equipment_defaults_to_the_hopper_and_unknown_equipment_is_refused() {
     assert_eq!(named.unwrap().file_sha256.len(), 64);
     assert_eq!(
         error(&VALID.replace("solver: liggghts\n", "equipment: silo\nsolver: liggghts\n")),
-        "jobs/study.yaml:2:12: equipment: unknown equipment `silo`; expected one of: hopper, custom"
+        "jobs/study.yaml:2:12: equipment: unknown equipment `silo`; expected one of: hopper, chute, custom"
     );
 }
 

@@ -172,6 +172,11 @@ pub fn run(case_path: &Path, log_path: &Path, threads: usize) -> anyhow::Result<
     writeln!(log, "{}", profile(&summary.timers, loop_time))?;
     writeln!(
         log,
+        "Wall impact energy of {:.9e} J",
+        simulation.wall_impact_energy_j()
+    )?;
+    writeln!(
+        log,
         "ORCH-DEM DONE at step {} (t = {:.6} s) with {} particles left",
         summary.steps,
         simulation.time_s(),

@@ -16,7 +16,7 @@ use orch_metamodel::{
     FactorRange, Fit, Goal,
 };
 
-use crate::store::{FitRecord, JobState, RoundRecord, Store, StoreError};
+use crate::store::{Decision, FitRecord, JobState, RoundRecord, Store, StoreError};
 use crate::study::{DesignPoint, Objective, Study};
 
 /// What happened after a round.
@@ -174,7 +174,7 @@ async fn analyse(
         fits,
         optimum: None,
         uncertainty: None,
-        decision: "last_round",
+        decision: Decision::LastRound,
         note: String::new(),
         next: None,
     };
@@ -203,7 +203,7 @@ async fn analyse(
             .find(|f| f.response == missing)
             .and_then(|f| f.result.as_ref().err().cloned())
             .unwrap_or_default();
-        record.decision = "no_optimum";
+        record.decision = Decision::NoOptimum;
         record.note = format!("no surface for {missing}: {why}");
         return Ok(record);
     }
@@ -283,7 +283,7 @@ async fn analyse(
     };
     record.optimum = Some((objective_name, goal, optimum.clone(), natural.clone()));
     if !feasible {
-        record.decision = "no_optimum";
+        record.decision = Decision::NoOptimum;
         record.note = "no point of the box satisfies the objective's constraints; the best compromise is shown".into();
         return Ok(record);
     }
@@ -303,7 +303,7 @@ async fn analyse(
     } else if let Some((_, _, before, _)) =
         previous.filter(|p| converged(p.2, optimum.value, study.metamodel.tolerance))
     {
-        record.decision = "converged";
+        record.decision = Decision::Converged;
         record.note = format!(
             "the predicted optimum moved from {before:.6} to {:.6}, less than {} %",
             optimum.value,
@@ -326,7 +326,7 @@ async fn analyse(
         };
         let next_points = design.points.into_iter().map(to_point).collect();
         let next_tests = study.test_points(round + 1, &next_ranges);
-        record.decision = "next_round";
+        record.decision = Decision::NextRound;
         record.note = format!(
             "round {} in a box {} times as wide around the optimum",
             round + 2,
@@ -438,7 +438,7 @@ rounds: 2
         assert!((natural[1] - 0.0004).abs() < 1e-6, "{natural:?}");
         assert!((value - (1.0 - 0.09)).abs() < 1e-3, "{value}");
         // The next round: half as wide around the optimum, with its own test points.
-        assert_eq!(first.decision.as_ref().unwrap().0, "next_round");
+        assert_eq!(first.decision.as_ref().unwrap().0, Decision::NextRound);
         let next = &rounds[1].ranges;
         assert!(((next[0].min + next[0].max) / 2.0 - natural[0]).abs() < 1e-12);
         assert!(((next[0].max - next[0].min) - 0.004).abs() < 1e-12);

@@ -289,7 +289,7 @@ fn round_json(round: &StoredRound, names: &[&str]) -> Value {
             "samples": u.samples, "mean": u.mean, "std": u.std,
             "interval_95": [u.q025, u.q975], "lower_bound_95": u.q05, "upper_bound_95": u.q95,
         })),
-        "decision": round.decision.as_ref().map(|(d, note)| json!({"decision": d, "note": note})),
+        "decision": round.decision.as_ref().map(|(d, note)| json!({"decision": d.as_str(), "note": note})),
     })
 }
 

@@ -99,7 +99,7 @@ async fn round_section(
         let _ = writeln!(
             out,
             "<p>Decision: <b>{}</b>: {}</p>",
-            escape(decision),
+            escape(decision.as_str()),
             escape(note)
         );
     }

@@ -25,7 +25,8 @@ use sqlx::{Row, SqlitePool};
 
 pub use rounds::{FitRecord, RoundRecord, StoredFit, StoredRound};
 pub use rows::{
-    FactorRow, JobRow, JobState, PointRow, StudyRow, StudyState, UnknownState, DESIGN_STAGE,
+    Decision, FactorRow, JobRow, JobState, PointRow, StudyRow, StudyState, UnknownState,
+    DESIGN_STAGE,
 };
 
 use crate::study::Study;

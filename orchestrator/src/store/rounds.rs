@@ -5,7 +5,8 @@ use std::path::Path;
 use orch_metamodel::{FactorRange, Fit, Optimum, Spread, TestQuality};
 use sqlx::Row;
 
-use super::{query_error, Store, StoreError};
+use super::rows::parse_state;
+use super::{query_error, Decision, Store, StoreError};
 use crate::study::{DesignPoint, Study};
 
 /// A fitted (or unfittable) surface of one response, to record.
@@ -36,8 +37,8 @@ pub struct RoundRecord {
     pub optimum: Option<(String, &'static str, Optimum, Vec<f64>)>,
     /// `(response, spread, seed)` at the optimum.
     pub uncertainty: Option<(String, Spread, u64)>,
-    /// `next_round`, `converged`, `last_round` or `no_optimum`.
-    pub decision: &'static str,
+    /// What the stage decided.
+    pub decision: Decision,
     /// Why, for people.
     pub note: String,
     /// The next round's box, design points and test points, when there is one.
@@ -91,7 +92,7 @@ pub struct StoredRound {
     /// Spread at the optimum.
     pub uncertainty: Option<Spread>,
     /// `(decision, note)`.
-    pub decision: Option<(String, String)>,
+    pub decision: Option<(Decision, String)>,
 }
 
 impl Store {
@@ -378,6 +379,10 @@ impl Store {
             .fetch_optional(&self.pool)
             .await
             .map_err(query_error("read a decision"))?;
+            let decision = match decision {
+                Some((text, note)) => Some((parse_state("proposals", round, text)?, note)),
+                None => None,
+            };
             rounds.push(StoredRound {
                 round,
                 ranges,

@@ -58,6 +58,7 @@ macro_rules! text_state {
 
 text_state!(JobState);
 text_state!(StudyState);
+text_state!(Decision);
 
 /// Reads the `state` column of a row of `table` as `S`, naming the row when it holds a
 /// value this orch does not know.
@@ -188,6 +189,55 @@ impl FromStr for StudyState {
 }
 
 impl fmt::Display for StudyState {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+/// What the metamodel stage decided after a round (`proposals.decision`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Decision {
+    /// Another round runs in a box around the optimum.
+    NextRound,
+    /// The optimum moved less than the tolerance: the study stops.
+    Converged,
+    /// The study's last round (or it has no objective).
+    LastRound,
+    /// No surface gave an optimum to move to: the study stops.
+    NoOptimum,
+}
+
+impl Decision {
+    /// Every decision.
+    pub const ALL: [Decision; 4] = [
+        Decision::NextRound,
+        Decision::Converged,
+        Decision::LastRound,
+        Decision::NoOptimum,
+    ];
+
+    /// The text stored in the database.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Decision::NextRound => "next_round",
+            Decision::Converged => "converged",
+            Decision::LastRound => "last_round",
+            Decision::NoOptimum => "no_optimum",
+        }
+    }
+}
+
+impl FromStr for Decision {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Decision::ALL
+            .into_iter()
+            .find(|d| d.as_str() == s)
+            .ok_or_else(|| format!("unknown decision `{s}`"))
+    }
+}
+
+impl fmt::Display for Decision {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(self.as_str())
     }

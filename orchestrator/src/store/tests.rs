@@ -222,3 +222,62 @@ async fn states_are_written_as_the_text_they_are_read_from() {
         assert_eq!(state.as_str().parse::<JobState>(), Ok(state));
     }
 }
+
+/// A stage kind is whatever the registry of stages names: the store takes a kind it
+/// has not seen before (no migration per kind), and still refuses an empty one.
+#[tokio::test]
+async fn a_job_of_a_new_stage_kind_is_stored_without_a_migration() {
+    let (_dir, store, id) = store_with_study().await;
+    let design = store.jobs(id).await.unwrap()[0].clone();
+    let insert = |stage: &'static str, name: &'static str| {
+        sqlx::query(
+            "INSERT INTO jobs (study_id, point_id, replicate, name, seed, state, run_dir, stage, after_job_id)
+             VALUES (?, ?, 0, ?, 1, 'pending', 'runs/x', ?, ?)",
+        )
+        .bind(id)
+        .bind(design.point_id)
+        .bind(name)
+        .bind(stage)
+        .bind(design.id)
+        .execute(&store.pool)
+    };
+    insert("post", "p000r0-post").await.unwrap();
+    assert!(insert("", "p000r0-empty").await.is_err());
+    let jobs = store.jobs(id).await.unwrap();
+    let post = jobs.iter().find(|j| j.name == "p000r0-post").unwrap();
+    assert_eq!(post.stage_kind(), Some("post"));
+    assert_eq!(post.after_job_id, Some(design.id));
+    // Deleting the design job still deletes the stage that follows it.
+    sqlx::query("DELETE FROM jobs WHERE id = ?")
+        .bind(design.id)
+        .execute(&store.pool)
+        .await
+        .unwrap();
+    let left = store.jobs(id).await.unwrap();
+    assert!(left.iter().all(|j| j.name != "p000r0-post"));
+}
+
+/// A round's decision is an enum too: a value this orch does not know is an error
+/// naming the row, not text passed on.
+#[tokio::test]
+async fn an_unknown_round_decision_is_an_error_naming_the_row() {
+    let (_dir, store, id) = store_with_study().await;
+    let mut conn = store.pool.acquire().await.unwrap();
+    sqlx::query("PRAGMA ignore_check_constraints = ON")
+        .execute(&mut *conn)
+        .await
+        .unwrap();
+    sqlx::query(
+        "INSERT INTO proposals (study_id, round, decision, note) VALUES (?, 0, 'someday', 'x')",
+    )
+    .bind(id)
+    .execute(&mut *conn)
+    .await
+    .unwrap();
+    drop(conn);
+    let error = store.rounds(id).await.unwrap_err().to_string();
+    assert!(
+        error.contains("proposals row 0 has state `someday`, which this orch does not know"),
+        "{error}"
+    );
+}

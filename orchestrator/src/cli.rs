@@ -501,11 +501,55 @@ async fn drive(store: &Store, row: &StudyRow, study: &Study) -> anyhow::Result<i
         summary.unfinished,
         study.name
     );
+    if summary.ending == Ending::Finished {
+        conclude(store, row, study).await;
+    }
     Ok(match summary.ending {
         Ending::Interrupted => exit_codes::INTERRUPTED,
         Ending::Finished if summary.failed == 0 => exit_codes::SUCCESS,
         _ => exit_codes::JOBS_FAILED,
     })
+}
+
+/// The end of a finished study: the recommended design with its bounds and warnings,
+/// and the report written to `<project>/reports/<study>.html`. A failure here is said,
+/// not fatal: the study itself is done and stored.
+async fn conclude(store: &Store, row: &StudyRow, study: &Study) {
+    let recommendation = async {
+        let rounds = store.rounds(row.id).await?;
+        let factors = store.factors(row.id).await?;
+        let runs = crate::surfaces::design_runs(store, row.id).await?;
+        anyhow::Ok(status::recommendation(study, &rounds, &factors, &runs))
+    };
+    match recommendation.await {
+        Ok(Some(text)) => {
+            for line in text.lines() {
+                errln!("orch: {line}");
+            }
+        }
+        Ok(None) => {}
+        Err(e) => errln!("orch: cannot read the study's optimum back: {e:#}"),
+    }
+    let path = store
+        .path()
+        .parent()
+        .unwrap_or(Path::new("."))
+        .join("reports")
+        .join(format!("{}.html", row.name));
+    let written = async {
+        let html = crate::report::render(store, row, Some(study)).await?;
+        write_output(&path, html.as_bytes())
+    };
+    match written.await {
+        Ok(()) => {
+            let path = std::path::absolute(&path).unwrap_or(path);
+            errln!("orch: report: {}", path.display());
+        }
+        Err(e) => errln!(
+            "orch: the report could not be written: {e:#}; `orch report {}` tries again",
+            row.name
+        ),
+    }
 }
 
 /// Runs jobs, analyses each finished round, and runs the next until the rounds end.

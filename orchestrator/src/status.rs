@@ -301,6 +301,73 @@ pub fn verdict_of(fit: &StoredFit, factors: &[String], runs: &[Run]) -> Verdict 
     verdict::judge(fit, &observed.y, leverages.as_deref())
 }
 
+/// What a finished study recommends, for the end of `orch submit`: the last round's
+/// optimum in natural units, the objective's predicted value, its spread under the
+/// uncertain inputs (95 % interval), and the warnings that qualify it. `None` when no
+/// round found an optimum.
+pub fn recommendation(
+    study: &crate::study::Study,
+    rounds: &[StoredRound],
+    factors: &[FactorRow],
+    runs: &BTreeMap<i64, Vec<Run>>,
+) -> Option<String> {
+    let round = rounds.iter().rev().find(|r| r.optimum.is_some())?;
+    let runs = runs.get(&round.round).map(Vec::as_slice).unwrap_or(&[]);
+    let (response, goal, value, natural) = round.optimum.as_ref()?;
+    let unit = |name: &str| study.response_unit(name).unwrap_or("").to_string();
+    let design: Vec<String> = factors
+        .iter()
+        .zip(natural)
+        .map(|(f, v)| {
+            format!(
+                "{} = {} {}",
+                f.name,
+                crate::report::html::number(*v),
+                f.unit
+            )
+        })
+        .collect();
+    let mut out = format!(
+        "recommended design (round {}): {}\n  {goal} {response}: {} {} predicted there",
+        round.round,
+        design.join(", "),
+        crate::report::html::number(*value),
+        unit(response)
+    );
+    if let (Some(spread), Some(uncertainty)) = (&round.uncertainty, &study.uncertainty) {
+        let inputs: Vec<String> = uncertainty
+            .parameters
+            .iter()
+            .map(|(index, distribution)| {
+                use orch_metamodel::Distribution;
+                let n = crate::report::html::number;
+                let law = match distribution {
+                    Distribution::Normal { mean, std } => format!("N({}, {})", n(*mean), n(*std)),
+                    Distribution::Uniform { low, high } => format!("U({}, {})", n(*low), n(*high)),
+                    Distribution::LogNormal { mu, sigma } => {
+                        format!("lognormal(μ {}, σ {})", n(*mu), n(*sigma))
+                    }
+                };
+                format!("{} ~ {law}", study.factors[*index].name)
+            })
+            .collect();
+        out.push_str(&format!(
+            "; under the uncertain {} ({} samples): mean {} {u}, 95 % interval [{}, {}] {u}",
+            inputs.join(", "),
+            spread.samples,
+            crate::report::html::number(spread.mean),
+            crate::report::html::number(spread.q025),
+            crate::report::html::number(spread.q975),
+            u = unit(response)
+        ));
+    }
+    out.push('\n');
+    for warning in verdict::optimum_warnings(round, factors, runs) {
+        out.push_str(&format!("  warning: {warning}\n"));
+    }
+    Some(out)
+}
+
 /// Lines on each analysed round: fit quality, optimum, 95 % bounds, decision, and
 /// warnings where a surface does not predict, a response is constant, σ_cross is
 /// missing or the optimum lies on a limit of the study file.

@@ -3,9 +3,10 @@
 //! direction (its agreement with LIGGGHTS and YADE is in `yade.rs`).
 
 use std::collections::BTreeMap;
+use std::path::Path;
 use std::time::Instant;
 
-use crate::support::{beverloo, count, root, solver_lock, text, Project};
+use crate::support::{beverloo, count, rendered_dom, root, solver_lock, text, Project};
 
 #[test]
 fn the_quickstart_study_runs_on_the_native_kernel_and_discharges_like_beverloo() {
@@ -40,7 +41,15 @@ fn the_quickstart_study_runs_on_the_native_kernel_and_discharges_like_beverloo()
         .lines()
         .find_map(|l| l.strip_prefix("orch: report: "))
         .unwrap_or_else(|| panic!("no report path in:\n{stderr}"));
-    assert!(std::fs::read_to_string(report).unwrap().contains("<svg"));
+    // The report the quickstart wrote, as a browser renders it: both rounds' figures.
+    if let Some(dom) = rendered_dom(Path::new(report), project.dir.path()) {
+        for title in ["Round 0", "Round 1", "Response surface", "Monte Carlo"] {
+            assert!(dom.contains(title), "the rendered report lacks {title}");
+        }
+        let svgs = dom.matches("<svg").count();
+        eprintln!("quickstart report: {svgs} <svg> figures rendered by Chromium");
+        assert!(svgs >= 2 * (2 * 3 + 1), "{svgs} <svg> elements");
+    }
 
     let mut by_outlet: BTreeMap<u64, Vec<f64>> = BTreeMap::new();
     for job in status["jobs"].as_array().unwrap() {
@@ -195,6 +204,13 @@ fn the_cone_shape_study_finds_the_concave_corner_faster_than_the_straight_cone()
     assert!(convex < straight, "convex {convex} vs straight {straight}");
 
     // The fitted surface puts the optimum of the discharge rate at the concave corner.
+    // Its report, as a browser renders it.
+    let output = project.run(&["report", "cone-shape"]);
+    assert_eq!(output.status.code(), Some(0), "{}", text(&output.stderr));
+    let page = std::path::PathBuf::from(text(&output.stdout).trim());
+    if let Some(dom) = rendered_dom(&page, project.dir.path()) {
+        assert!(dom.contains("Response surface") && dom.matches("<svg").count() >= 7);
+    }
     let optimum = &status["rounds"][0]["optimum"];
     assert_eq!(optimum["response"], "discharge_rate", "{optimum:#}");
     assert_eq!(optimum["factors"]["shape_x1"].as_f64(), Some(-0.008));

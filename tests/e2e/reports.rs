@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
 
-use crate::support::{require_program, solver_lock, text, Project};
+use crate::support::{headless, require_program, solver_lock, text, Project};
 
 /// Two factors, a face-centred CCD of 300 particles each (about 1 s per run), an
 /// objective and Monte Carlo over one factor: every part of a report has something
@@ -126,23 +126,6 @@ fn export_writes_one_csv_row_per_run_with_units_that_python_reads_and_series_in_
         series[1..].iter().any(|r| r[2] == "kg/s"),
         "a unit per series"
     );
-}
-
-/// `chromium --headless` with the flags that keep it off the network and quiet.
-fn headless(user_data: &Path) -> Command {
-    let mut command = Command::new("chromium");
-    command.args([
-        "--headless",
-        "--no-sandbox",
-        "--disable-gpu",
-        "--disable-quic",
-        "--no-first-run",
-        "--disable-background-networking",
-        "--disable-component-update",
-        "--disable-sync",
-    ]);
-    command.arg(format!("--user-data-dir={}", user_data.display()));
-    command
 }
 
 #[test]

@@ -345,3 +345,36 @@ pub fn require_slurm() -> Option<PathBuf> {
         }
     }
 }
+
+/// `chromium --headless` with the flags that keep it off the network and quiet, its
+/// profile in `user_data`.
+pub fn headless(user_data: &Path) -> Command {
+    let mut command = Command::new("chromium");
+    command.args([
+        "--headless",
+        "--no-sandbox",
+        "--disable-gpu",
+        "--disable-quic",
+        "--no-first-run",
+        "--disable-background-networking",
+        "--disable-component-update",
+        "--disable-sync",
+    ]);
+    command.arg(format!("--user-data-dir={}", user_data.display()));
+    command
+}
+
+/// The DOM headless Chromium renders from the HTML file `page` (a profile kept in
+/// `scratch`), or `None` when Chromium is not installed (a failure under CI=true).
+pub fn rendered_dom(page: &Path, scratch: &Path) -> Option<String> {
+    if !require_program("Chromium", "chromium", "chromium") {
+        return None;
+    }
+    let dom = headless(&scratch.join("chromium-profile"))
+        .arg("--dump-dom")
+        .arg(format!("file://{}", page.display()))
+        .output()
+        .unwrap();
+    assert!(dom.status.success(), "{}", text(&dom.stderr));
+    Some(text(&dom.stdout))
+}

@@ -346,20 +346,7 @@ impl Store {
         is_alive: impl Fn(i64, i64) -> bool,
     ) -> Result<(), StoreError> {
         let mut tx = self.begin_write().await?;
-        let holder: (Option<i64>, Option<i64>) =
-            sqlx::query_as("SELECT driver_pid, driver_started FROM studies WHERE id = ?")
-                .bind(study.id)
-                .fetch_one(&mut *tx)
-                .await
-                .map_err(query_error("read the study's driver"))?;
-        if let (Some(other), Some(other_started)) = holder {
-            if other != pid && is_alive(other, other_started) {
-                return Err(StoreError::Busy {
-                    study: study.name.clone(),
-                    pid: other,
-                });
-            }
-        }
+        refuse_if_driven(&mut tx, study, Some(pid), &is_alive).await?;
         sqlx::query("UPDATE studies SET driver_pid = ?, driver_started = ?, state = 'active', updated_at = ? WHERE id = ?")
             .bind(pid)
             .bind(started)
@@ -380,20 +367,7 @@ impl Store {
         is_alive: impl Fn(i64, i64) -> bool,
     ) -> Result<(), StoreError> {
         let mut tx = self.begin_write().await?;
-        let holder: (Option<i64>, Option<i64>) =
-            sqlx::query_as("SELECT driver_pid, driver_started FROM studies WHERE id = ?")
-                .bind(study.id)
-                .fetch_one(&mut *tx)
-                .await
-                .map_err(query_error("read the study's driver"))?;
-        if let (Some(other), Some(other_started)) = holder {
-            if is_alive(other, other_started) {
-                return Err(StoreError::Busy {
-                    study: study.name.clone(),
-                    pid: other,
-                });
-            }
-        }
+        refuse_if_driven(&mut tx, study, None, &is_alive).await?;
         sqlx::query("DELETE FROM studies WHERE id = ?")
             .bind(study.id)
             .execute(&mut *tx)
@@ -948,6 +922,31 @@ pub(crate) async fn insert_points_and_jobs(
         }
     }
     Ok(())
+}
+
+/// Refuses, inside the write transaction `tx`, when a live orch process other than
+/// `me` drives `study` (`is_alive(pid, started)` tells whether a recorded one runs).
+async fn refuse_if_driven(
+    tx: &mut sqlx::Transaction<'_, sqlx::Sqlite>,
+    study: &StudyRow,
+    me: Option<i64>,
+    is_alive: impl Fn(i64, i64) -> bool,
+) -> Result<(), StoreError> {
+    let holder: (Option<i64>, Option<i64>) =
+        sqlx::query_as("SELECT driver_pid, driver_started FROM studies WHERE id = ?")
+            .bind(study.id)
+            .fetch_one(&mut **tx)
+            .await
+            .map_err(query_error("read the study's driver"))?;
+    match holder {
+        (Some(other), Some(started)) if Some(other) != me && is_alive(other, started) => {
+            Err(StoreError::Busy {
+                study: study.name.clone(),
+                pid: other,
+            })
+        }
+        _ => Ok(()),
+    }
 }
 
 /// A value bound into a transition's assignments.

@@ -14,6 +14,7 @@ pub mod optimise;
 pub mod propagate;
 pub mod propose;
 mod scaling;
+pub mod student;
 
 pub use basis::{Basis, BasisKind};
 pub use design::{run_count, CentralCompositeAlpha, Design, DesignError, DesignKind, MAX_RUNS};
@@ -21,3 +22,6 @@ pub use fit::{Fit, FitError, Quality, TestQuality};
 pub use optimise::{optimise, optimise_subject_to, BoxBounds, Constraint, Goal, Optimum};
 pub use propagate::{propagate, Distribution, Spread};
 pub use scaling::FactorRange;
+pub use student::{
+    student_t_cdf, student_t_quantile, welch_interval, SampleSummary, WelchInterval,
+};

@@ -128,6 +128,33 @@ pub enum Command {
         #[arg(long, conflicts_with_all = ["name", "solver"])]
         markdown: bool,
     },
+    /// The native kernel against LIGGGHTS (and YADE when asked) on a suite of reference
+    /// cases: per response the means, standard errors, the relative difference with a
+    /// Welch interval and a verdict against its tolerance; the throughput of each
+    /// solver and their ratio. Stored in the project's history; writes
+    /// `<project>/reports/compare.html`. Exit status 0 when nothing regressed, 1 on a
+    /// regression (an interval wholly outside ±tolerance, or a failed run).
+    Compare {
+        /// The suite file (default: `jobs/compare/suite.yaml`).
+        #[arg(default_value = "jobs/compare/suite.yaml")]
+        suite: PathBuf,
+        /// Only the cases marked `quick: true` (the CI subset).
+        #[arg(long)]
+        quick: bool,
+        /// The solvers: `native` and at least one reference (`liggghts`, `yade`).
+        #[arg(long, value_delimiter = ',', default_value = "native,liggghts")]
+        solvers: Vec<String>,
+        /// Multiply a parameter of the NATIVE runs only by a factor, e.g.
+        /// `friction=1.3`: for tests that a real difference is caught. Repeatable.
+        #[arg(long, value_name = "NAME=FACTOR")]
+        perturb: Vec<String>,
+        /// Runs at once (one core each).
+        #[arg(long, default_value_t = 2)]
+        parallel: usize,
+        /// Keep the run directories (default: removed when every run succeeded).
+        #[arg(long)]
+        keep_runs: bool,
+    },
     /// Default templates, to copy and adapt as a study's `template:`.
     Template {
         /// What to do.
@@ -194,6 +221,23 @@ pub async fn run(args: Args) -> anyhow::Result<i32> {
             solver,
             markdown,
         } => params(name.as_deref(), solver.as_deref(), markdown),
+        Command::Compare {
+            suite,
+            quick,
+            solvers,
+            perturb,
+            parallel,
+            keep_runs,
+        } => {
+            let options = CompareArgs {
+                quick,
+                solvers,
+                perturb,
+                parallel,
+                keep_runs,
+            };
+            compare(project_dir, &suite, &options).await
+        }
         Command::Template {
             action: TemplateAction::Show { equipment, solver },
         } => {
@@ -341,6 +385,181 @@ fn program_exists(program: &str) -> bool {
     std::env::var_os("PATH")
         .map(|paths| std::env::split_paths(&paths).any(|dir| dir.join(program).is_file()))
         .unwrap_or(false)
+}
+
+/// Options of `orch compare` as given.
+struct CompareArgs {
+    quick: bool,
+    solvers: Vec<String>,
+    perturb: Vec<String>,
+    parallel: usize,
+    keep_runs: bool,
+}
+
+/// `name=factor` pairs of `--perturb`.
+fn perturbation(given: &[String]) -> anyhow::Result<std::collections::BTreeMap<String, f64>> {
+    given
+        .iter()
+        .map(|p| {
+            let parsed = p.split_once('=').and_then(|(name, factor)| {
+                let factor: f64 = factor.trim().parse().ok()?;
+                (factor.is_finite() && factor > 0.0).then(|| (name.trim().to_string(), factor))
+            });
+            parsed.ok_or_else(|| {
+                input_error(format!(
+                    "--perturb {p}: give NAME=FACTOR with a positive factor, e.g. friction=1.3"
+                ))
+            })
+        })
+        .collect()
+}
+
+async fn compare(
+    project_dir: Option<&Path>,
+    suite_file: &Path,
+    args: &CompareArgs,
+) -> anyhow::Result<i32> {
+    use crate::compare::{self, history, RunOptions, Suite, Verdict, NATIVE};
+    let suite = Suite::load(suite_file).map_err(|e| input_error(e.to_string()))?;
+    let perturbation = perturbation(&args.perturb)?;
+    let mut solvers = Vec::new();
+    for name in &args.solvers {
+        solvers.push(known_solver(name)?);
+    }
+    if !args.solvers.iter().any(|s| s == NATIVE) || solvers.len() < 2 {
+        return Err(input_error(
+            "--solvers: name `native` and at least one reference, e.g. native,liggghts",
+        ));
+    }
+    for case in suite.selected(args.quick) {
+        let equipment = orch_adapters::equipment_for(&case.equipment).expect("checked");
+        for name in perturbation.keys() {
+            if !equipment
+                .parameters()
+                .iter()
+                .any(|p| p.name == name.as_str())
+            {
+                return Err(input_error(format!(
+                    "--perturb {name}: not a parameter of {} (case `{}`)",
+                    case.equipment, case.name
+                )));
+            }
+        }
+        for solver in &solvers {
+            if solver.template_for(&case.equipment).is_none() {
+                return Err(input_error(format!(
+                    "{} cannot simulate {} (case `{}`)",
+                    solver.name, case.equipment, case.name
+                )));
+            }
+        }
+    }
+    for solver in solvers.iter().filter(|s| s.name != NATIVE) {
+        let program = (solver.command)("probe").program;
+        if !program_exists(&program) {
+            return Err(input_error(format!(
+                "{} is not installed (`{program}` is not on PATH): {}",
+                solver.name, solver.install_hint
+            )));
+        }
+    }
+    let project = project::for_study_file(suite_file, project_dir).with_context(|| {
+        format!(
+            "cannot resolve the project directory of {}",
+            suite_file.display()
+        )
+    })?;
+    let store = Store::open(&project).await?;
+    let started_at = crate::store::now_s();
+    let runs_dir = project
+        .join(project::RUNS_DIR_NAME)
+        .join("compare")
+        .join(format!("{}", started_at as u64));
+    let options = RunOptions {
+        quick: args.quick,
+        solvers,
+        perturbation: perturbation.clone(),
+        parallel: args.parallel,
+        runs_dir: runs_dir.clone(),
+    };
+    let cases = suite.selected(args.quick).len();
+    errln!(
+        "orch compare: {cases} case(s) of {} on {}, {} at once; runs in {}",
+        suite_file.display(),
+        args.solvers.join(", "),
+        args.parallel,
+        runs_dir.display()
+    );
+    let suite_for_run = suite.clone();
+    let outcome = tokio::task::spawn_blocking(move || compare::run_suite(&suite_for_run, &options))
+        .await
+        .context("the comparison stopped")?;
+    let verdict = outcome.verdict();
+    let suite_dir = suite_file
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let record = crate::store::ComparisonRecord {
+        started_at,
+        wall_time_s: outcome.wall_time_s,
+        git_commit: compare::git_commit(suite_dir),
+        suite: suite_file.display().to_string(),
+        quick: args.quick,
+        perturbation: perturbation
+            .iter()
+            .map(|(n, f)| format!("{n}={f}"))
+            .collect::<Vec<_>>()
+            .join(","),
+        solver_versions: history::versions_text(&outcome.solver_versions),
+        confidence: suite.confidence,
+        verdict: verdict.as_str().to_string(),
+    };
+    let (responses, speeds) = history::records(&outcome);
+    let id = store
+        .insert_comparison(&record, &responses, &speeds)
+        .await?;
+    let all = store.comparisons().await?;
+    let report = project.join("reports").join("compare.html");
+    write_output(&report, history::page(&all).as_bytes())?;
+    out!("{}", compare::table(&outcome))?;
+    for change in history::changes(&all) {
+        outln!("CHANGED: {change}")?;
+    }
+    outln!(
+        "comparison {id}: {} (solvers {}; commit {}; wall time {:.0} s); report {}",
+        verdict.as_str(),
+        record.solver_versions,
+        record.git_commit.as_deref().unwrap_or("unknown"),
+        outcome.wall_time_s,
+        report.display()
+    )?;
+    for r in outcome
+        .responses
+        .iter()
+        .filter(|r| r.verdict == Verdict::Regression)
+    {
+        outln!(
+            "REGRESSION: {} {} differs from {} by {:+.1} % [{:+.1} %, {:+.1} %], tolerance {:.0} %",
+            r.case,
+            r.response,
+            r.reference,
+            100.0 * r.relative_difference,
+            100.0 * r.low,
+            100.0 * r.high,
+            100.0 * r.tolerance
+        )?;
+    }
+    if outcome.failures.is_empty() && !args.keep_runs {
+        if let Err(e) = std::fs::remove_dir_all(&runs_dir) {
+            errln!("cannot remove {}: {e}", runs_dir.display());
+        }
+    }
+    store.close().await;
+    Ok(if verdict == Verdict::Regression {
+        exit_codes::REGRESSION
+    } else {
+        exit_codes::SUCCESS
+    })
 }
 
 async fn submit(

@@ -7,6 +7,7 @@
 
 pub mod catalogue;
 pub mod cli;
+pub mod compare;
 pub mod decide;
 pub mod driver;
 pub mod executor;

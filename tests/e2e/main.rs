@@ -7,6 +7,7 @@
 
 mod architecture;
 mod chute;
+mod compare;
 mod concurrency;
 mod crash_resume;
 mod custom;

@@ -12,6 +12,7 @@
 //! locked" at once), and the schema is created and migrated under an exclusive `flock`
 //! of [`LOCK_FILE`], so two processes never both apply the same migration.
 
+mod comparisons;
 mod rounds;
 mod rows;
 mod series;
@@ -23,6 +24,7 @@ use std::time::{Duration, SystemTime, UNIX_EPOCH};
 use sqlx::sqlite::{SqliteConnectOptions, SqliteJournalMode, SqlitePoolOptions, SqliteSynchronous};
 use sqlx::{Row, SqlitePool};
 
+pub use comparisons::{ComparisonRecord, ResponseRecord, SpeedRecord, StoredComparison};
 pub use rounds::{FitRecord, RoundRecord, StoredFit, StoredRound};
 pub use rows::{
     Decision, FactorRow, JobRow, JobState, PointRow, StudyRow, StudyState, UnknownState,

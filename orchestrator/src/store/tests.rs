@@ -281,3 +281,57 @@ async fn an_unknown_round_decision_is_an_error_naming_the_row() {
         "{error}"
     );
 }
+
+#[tokio::test]
+async fn a_comparison_is_stored_and_read_back_with_missing_figures_as_nan() {
+    let dir = tempfile::tempdir().unwrap();
+    let store = Store::open(dir.path()).await.unwrap();
+    let record = ComparisonRecord {
+        started_at: 1.0e9,
+        wall_time_s: 42.0,
+        git_commit: Some("abc".into()),
+        suite: "suite.yaml".into(),
+        quick: true,
+        perturbation: String::new(),
+        solver_versions: "liggghts=3.8.0, native=0.1.0".into(),
+        confidence: 0.95,
+        verdict: "regression".into(),
+    };
+    let response = ResponseRecord {
+        case: "c".into(),
+        response: "rate".into(),
+        reference_solver: "liggghts".into(),
+        native: [1.0, f64::NAN],
+        native_runs: 1,
+        reference: [2.0, 0.1],
+        reference_runs: 3,
+        relative_difference: -0.5,
+        interval: [f64::NAN, f64::NAN],
+        tolerance: 0.1,
+        verdict: "regression".into(),
+    };
+    let speed = SpeedRecord {
+        case: "c".into(),
+        solver: "native".into(),
+        particle_steps_per_s: 5e6,
+        runs: 3,
+    };
+    let id = store
+        .insert_comparison(
+            &record,
+            std::slice::from_ref(&response),
+            std::slice::from_ref(&speed),
+        )
+        .await
+        .unwrap();
+    let all = store.comparisons().await.unwrap();
+    assert_eq!(all.len(), 1);
+    assert_eq!(all[0].id, id);
+    assert_eq!(all[0].record, record);
+    assert_eq!(all[0].speeds, vec![speed]);
+    let read = &all[0].responses[0];
+    assert!(read.native[1].is_nan() && read.interval[0].is_nan());
+    assert_eq!(read.native[0], 1.0);
+    assert_eq!(read.relative_difference, -0.5);
+    assert_eq!(read.verdict, "regression");
+}

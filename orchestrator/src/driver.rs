@@ -42,6 +42,7 @@ use crate::executor::{
     STDERR_FILE, STDOUT_FILE,
 };
 use crate::output::errln;
+use crate::progress::{Progress, RoundProgress};
 use crate::store::{now_s, JobResults, JobRow, JobState, PointRow, Store, StoreError, StudyState};
 use crate::study::{ExecutorKind, StageConfig, Study};
 
@@ -126,6 +127,7 @@ async fn drive_with<E: Executor>(
         started: Instant::now(),
         last_poll: None,
         last_poll_error: None,
+        progress: Progress::on_stderr(),
     };
     let mut interrupt = signal(SignalKind::interrupt()).map_err(DriverError::Signals)?;
     let mut terminate = signal(SignalKind::terminate()).map_err(DriverError::Signals)?;
@@ -156,6 +158,7 @@ async fn drive_with<E: Executor>(
         driver
             .apply(&jobs.iter().collect::<Vec<_>>(), actions)
             .await?;
+        driver.show_progress(&jobs);
         if decide::is_finished(&jobs) {
             break Ending::Finished;
         }
@@ -192,6 +195,8 @@ struct Driver<'a, E> {
     started: Instant,
     last_poll: Option<Instant>,
     last_poll_error: Option<Instant>,
+    /// The bar of the round on a terminal; job lines go above it.
+    progress: Progress,
 }
 
 impl<E: Executor> Driver<'_, E> {
@@ -571,12 +576,26 @@ impl<E: Executor> Driver<'_, E> {
     }
 
     fn report(&self, job: &JobRow, message: &str) {
-        errln!(
+        self.progress.println(&format!(
             "[{:>7.1} s] {}/{}: {message}",
             self.started.elapsed().as_secs_f64(),
             self.study.name,
             job.name
+        ));
+    }
+
+    /// Updates the bar with where the latest round stands (`jobs` as read this tick).
+    fn show_progress(&self, jobs: &[JobRow]) {
+        let round_of = |job: &JobRow| self.points.get(&job.point_id).map_or(0, |p| p.round);
+        let round = jobs.iter().map(round_of).max().unwrap_or(0);
+        let round_jobs: Vec<&JobRow> = jobs.iter().filter(|j| round_of(j) == round).collect();
+        let progress = RoundProgress::of(
+            round,
+            self.study.rounds,
+            &round_jobs,
+            self.budgets.max_parallel,
         );
+        self.progress.update(&progress);
     }
 
     /// Why a run that succeeded lacks responses the study asks for (its objective's and

@@ -14,6 +14,7 @@ pub mod executor;
 pub mod exit_codes;
 pub mod export;
 pub mod output;
+pub mod progress;
 pub mod project;
 pub mod report;
 pub mod rounds;

@@ -1,5 +1,6 @@
 //! `orch` writing into a pipe whose reader has gone (`orch status | head -1`): no
-//! panic, a sane exit code, and a running study goes on to the end.
+//! panic, a sane exit code, and a running study goes on to the end. On a terminal, a
+//! progress bar per round; into a pipe, plain lines.
 
 use std::process::{Command, Output, Stdio};
 
@@ -80,4 +81,52 @@ fn submit_into_closed_pipes_runs_the_study_to_the_end() {
     let stderr = text(&again.stderr);
     assert_eq!(again.status.code(), Some(0), "{stderr}");
     assert!(!stderr.contains("panicked"), "{stderr}");
+}
+
+/// On a terminal (a pty from util-linux's `script`), `orch submit` shows a bar for the
+/// round: jobs done of all, "round i of n", running jobs, with each job's line above
+/// it. Into a pipe it prints the job lines alone.
+#[test]
+fn a_terminal_shows_a_progress_bar_per_round_and_a_pipe_plain_lines() {
+    let project = Project::new();
+    let file = project.write(
+        "tiny.yaml",
+        "name: tiny\nsolver: native\n\
+         factors:\n  - {name: outlet_diameter, min: 0.020, max: 0.024}\n\
+         fixed: {n_particles: 150, fill_time: 0.1, discharge_time: 0.4}\n\
+         design: {type: full_factorial, levels: 3}\n",
+    );
+    let command = format!(
+        "{} --project-dir {} submit {}",
+        crate::support::orch_bin().display(),
+        project.project_dir().display(),
+        file.display()
+    );
+    let output = std::process::Command::new("script")
+        .args(["-q", "-e", "-c", &command, "/dev/null"])
+        .current_dir(project.dir.path())
+        .output()
+        .expect("util-linux's `script` runs orch on a pty");
+    assert!(output.status.success(), "{}", text(&output.stderr));
+    let screen = text(&output.stdout);
+    assert!(screen.contains("3/3 jobs, round 1 of 1"), "{screen}");
+    assert!(screen.contains("tiny/p002r0: succeeded in"), "{screen}");
+
+    let other = project.write(
+        "tiny2.yaml",
+        &std::fs::read_to_string(&file)
+            .unwrap()
+            .replace("name: tiny", "name: tiny-piped"),
+    );
+    let output = project.run(&["submit", other.to_str().unwrap()]);
+    let stderr = text(&output.stderr);
+    assert!(output.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("tiny-piped/p002r0: succeeded in"),
+        "{stderr}"
+    );
+    assert!(
+        !stderr.contains("jobs, round"),
+        "no bar into a pipe: {stderr}"
+    );
 }

@@ -282,11 +282,34 @@ async fn analyse(
         Goal::Maximise => "maximise",
     };
     record.optimum = Some((objective_name, goal, optimum.clone(), natural.clone()));
+    // What each constrained response is predicted to be there, against its bound.
+    let at_bounds: Vec<String> = objective
+        .constraints
+        .iter()
+        .zip(&predictors)
+        .map(|((response, min, max), g)| {
+            let bound = match (min, max) {
+                (Some(min), Some(max)) => format!("bound [{min}, {max}]"),
+                (Some(min), None) => format!("bound ≥ {min}"),
+                (None, Some(max)) => format!("bound ≤ {max}"),
+                (None, None) => "no bound".to_string(),
+            };
+            format!("{response} = {:.6} ({bound})", g(&optimum.x))
+        })
+        .collect();
     if !feasible {
         record.decision = Decision::NoOptimum;
-        record.note = "no point of the box satisfies the objective's constraints; the best compromise is shown".into();
+        record.note = format!(
+            "no point of the box satisfies the objective's constraints; the best compromise reaches {}",
+            at_bounds.join(", ")
+        );
         return Ok(record);
     }
+    let constrained = if at_bounds.is_empty() {
+        String::new()
+    } else {
+        format!("; at the optimum {}", at_bounds.join(", "))
+    };
 
     let previous = if round > 0 {
         store
@@ -299,13 +322,17 @@ async fn analyse(
         None
     };
     if round + 1 >= study.rounds as i64 {
-        record.note = format!("round {} of {} was the last", round + 1, study.rounds);
+        record.note = format!(
+            "round {} of {} was the last{constrained}",
+            round + 1,
+            study.rounds
+        );
     } else if let Some((_, _, before, _)) =
         previous.filter(|p| converged(p.2, optimum.value, study.metamodel.tolerance))
     {
         record.decision = Decision::Converged;
         record.note = format!(
-            "the predicted optimum moved from {before:.6} to {:.6}, less than {} %",
+            "the predicted optimum moved from {before:.6} to {:.6}, less than {} %{constrained}",
             optimum.value,
             study.metamodel.tolerance * 100.0
         );
@@ -328,7 +355,7 @@ async fn analyse(
         let next_tests = study.test_points(round + 1, &next_ranges);
         record.decision = Decision::NextRound;
         record.note = format!(
-            "round {} in a box {} times as wide around the optimum",
+            "round {} in a box {} times as wide around the optimum{constrained}",
             round + 2,
             study.metamodel.shrink
         );
@@ -439,6 +466,12 @@ rounds: 2
         assert!((value - (1.0 - 0.09)).abs() < 1e-3, "{value}");
         // The next round: half as wide around the optimum, with its own test points.
         assert_eq!(first.decision.as_ref().unwrap().0, Decision::NextRound);
+        // The constrained response's predicted value there, against its bound.
+        let note = &first.decision.as_ref().unwrap().1;
+        assert!(
+            note.ends_with("; at the optimum segregation_ratio = 1.200000 (bound ≤ 1.2)"),
+            "{note}"
+        );
         let next = &rounds[1].ranges;
         assert!(((next[0].min + next[0].max) / 2.0 - natural[0]).abs() < 1e-12);
         assert!(((next[0].max - next[0].min) - 0.004).abs() < 1e-12);
@@ -454,5 +487,78 @@ rounds: 2
         // Round 1 is not analysed before its jobs ran; round 0 is never analysed twice.
         assert!(!store.round_decided(id, 1).await.unwrap());
         assert_eq!(store.rounds(id).await.unwrap()[0], rounds[0]);
+    }
+}
+
+#[cfg(test)]
+mod infeasible_tests {
+    use std::path::Path;
+
+    use super::*;
+    use crate::store::JobResults;
+
+    /// A bound no point of the box meets: segregation = 1 + x0 ≥ 0 everywhere.
+    const STUDY: &str = "\
+name: infeasible
+solver: liggghts
+factors:
+  - {name: outlet_diameter, min: 0.020, max: 0.028}
+  - {name: amplitude, min: 0.0, max: 0.0008}
+design: {type: central_composite, alpha: face_centred}
+objective:
+  response: discharge_rate
+  goal: maximise
+  constraints: [{response: segregation_ratio, max: -0.5}]
+";
+
+    #[tokio::test]
+    async fn an_infeasible_bound_says_the_best_value_reached() {
+        let dir = tempfile::tempdir().unwrap();
+        let store = Store::open(dir.path()).await.unwrap();
+        let study = Study::from_text(Path::new("infeasible.yaml"), STUDY, None).unwrap();
+        let id = store
+            .insert_study(
+                &study,
+                Path::new("infeasible.yaml"),
+                &dir.path().join("runs"),
+            )
+            .await
+            .unwrap();
+        let coded: HashMap<i64, Vec<f64>> = store
+            .points(id)
+            .await
+            .unwrap()
+            .into_iter()
+            .map(|p| (p.id, p.coded))
+            .collect();
+        for job in store.jobs(id).await.unwrap() {
+            let x = &coded[&job.point_id];
+            store.mark_rendered(job.id).await.unwrap();
+            store.mark_running(job.id, "1:1", 0.0).await.unwrap();
+            let results = JobResults {
+                responses: vec![
+                    (
+                        "discharge_rate".into(),
+                        1.0 - (x[0] - 0.5).powi(2) - x[1].powi(2),
+                    ),
+                    ("segregation_ratio".into(), 1.0 + x[0]),
+                ],
+                series: vec![],
+                note: None,
+            };
+            store.mark_succeeded(job.id, 0, &results).await.unwrap();
+        }
+        advance(&store, id, &study, &dir.path().join("runs/infeasible"))
+            .await
+            .unwrap();
+        let rounds = store.rounds(id).await.unwrap();
+        let (decision, note) = rounds[0].decision.clone().unwrap();
+        assert_eq!(decision, Decision::NoOptimum);
+        // The best compromise is the lowest segregation the box allows: 1 + (−1) = 0.
+        let reached = note
+            .strip_prefix("no point of the box satisfies the objective's constraints; the best compromise reaches segregation_ratio = ")
+            .and_then(|rest| rest.strip_suffix(" (bound ≤ -0.5)"))
+            .unwrap_or_else(|| panic!("{note}"));
+        assert!(reached.parse::<f64>().unwrap().abs() < 1e-3, "{note}");
     }
 }

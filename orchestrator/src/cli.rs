@@ -756,7 +756,12 @@ async fn conclude(store: &Store, row: &StudyRow, study: &Study) {
         .join("reports")
         .join(format!("{}.html", row.name));
     let written = async {
-        let html = crate::report::render(store, row, Some(study)).await?;
+        // The row as it is now (finished), not as it was when the study was claimed.
+        let row = store
+            .study_by_name(&row.name)
+            .await?
+            .unwrap_or_else(|| row.clone());
+        let html = crate::report::render(store, &row, Some(study)).await?;
         write_output(&path, html.as_bytes())
     };
     match written.await {

@@ -43,6 +43,10 @@ fn the_quickstart_study_runs_on_the_native_kernel_and_discharges_like_beverloo()
         .unwrap_or_else(|| panic!("no report path in:\n{stderr}"));
     // The report the quickstart wrote, as a browser renders it: both rounds' figures.
     if let Some(dom) = rendered_dom(Path::new(report), project.dir.path()) {
+        assert!(
+            dom.contains("study finished, 18 jobs"),
+            "the report says the study finished"
+        );
         for title in ["Round 0", "Round 1", "Response surface", "Monte Carlo"] {
             assert!(dom.contains(title), "the rendered report lacks {title}");
         }

@@ -372,9 +372,71 @@ fn mean_of(distribution: &Distribution) -> f64 {
     }
 }
 
+/// Test support: a study stored from `text` whose round-0 jobs all succeeded with the
+/// results `results(coded point, job index)` gives, ready to be analysed.
+#[cfg(test)]
+pub(crate) mod testing {
+    use std::collections::HashMap;
+    use std::path::{Path, PathBuf};
+
+    use crate::store::{JobResults, Store};
+    use crate::study::Study;
+
+    /// The stored study, its store and folder.
+    pub(crate) struct RoundRun {
+        /// Holds the store and the runs.
+        pub dir: tempfile::TempDir,
+        /// The store.
+        pub store: Store,
+        /// The study's id.
+        pub id: i64,
+        /// The study.
+        pub study: Study,
+    }
+
+    impl RoundRun {
+        /// The study's run folder.
+        pub(crate) fn runs_dir(&self) -> PathBuf {
+            self.dir.path().join("runs").join(&self.study.name)
+        }
+    }
+
+    /// Stores `text` and marks every job of round 0 succeeded with `results`.
+    pub(crate) async fn round_run(
+        text: &str,
+        results: impl Fn(&[f64], usize) -> JobResults,
+    ) -> RoundRun {
+        let dir = tempfile::tempdir().unwrap();
+        let store = Store::open(dir.path()).await.unwrap();
+        let study = Study::from_text(Path::new("study.yaml"), text, None).unwrap();
+        let id = store
+            .insert_study(&study, Path::new("study.yaml"), &dir.path().join("runs"))
+            .await
+            .unwrap();
+        let coded: HashMap<i64, Vec<f64>> = store
+            .points(id)
+            .await
+            .unwrap()
+            .into_iter()
+            .map(|p| (p.id, p.coded))
+            .collect();
+        for (k, job) in store.jobs(id).await.unwrap().iter().enumerate() {
+            store.mark_rendered(job.id).await.unwrap();
+            store.mark_running(job.id, "1:1", 0.0).await.unwrap();
+            let results = results(&coded[&job.point_id], k);
+            store.mark_succeeded(job.id, 0, &results).await.unwrap();
+        }
+        RoundRun {
+            dir,
+            store,
+            id,
+            study,
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
-    use std::path::Path;
 
     use super::*;
     use crate::store::JobResults;
@@ -408,37 +470,18 @@ rounds: 2
 
     #[tokio::test]
     async fn a_round_with_known_surfaces_gives_the_constrained_optimum_and_the_next_box() {
-        let dir = tempfile::tempdir().unwrap();
-        let store = Store::open(dir.path()).await.unwrap();
-        let study = Study::from_text(Path::new("surfaces.yaml"), STUDY, None).unwrap();
-        let id = store
-            .insert_study(&study, Path::new("surfaces.yaml"), &dir.path().join("runs"))
-            .await
-            .unwrap();
-        let points: HashMap<i64, Vec<f64>> = store
-            .points(id)
-            .await
-            .unwrap()
-            .into_iter()
-            .map(|p| (p.id, p.coded))
-            .collect();
+        let run = testing::round_run(STUDY, |coded, _| JobResults {
+            responses: responses(coded),
+            series: vec![],
+            note: None,
+        })
+        .await;
+        let (store, id, study) = (&run.store, run.id, &run.study);
         let jobs = store.jobs(id).await.unwrap();
         assert_eq!(jobs.len(), 9 + 4);
         assert_eq!(jobs.iter().filter(|j| j.name.starts_with('t')).count(), 4);
-        for job in &jobs {
-            store.mark_rendered(job.id).await.unwrap();
-            store.mark_running(job.id, "1:1", 0.0).await.unwrap();
-            let results = JobResults {
-                responses: responses(&points[&job.point_id]),
-                series: vec![],
-                note: None,
-            };
-            store.mark_succeeded(job.id, 0, &results).await.unwrap();
-        }
 
-        let advanced = advance(&store, id, &study, &dir.path().join("runs/surfaces"))
-            .await
-            .unwrap();
+        let advanced = advance(store, id, study, &run.runs_dir()).await.unwrap();
         assert_eq!(advanced, Advance::NextRound(1));
         let rounds = store.rounds(id).await.unwrap();
         let first = &rounds[0];
@@ -488,17 +531,9 @@ rounds: 2
         assert!(!store.round_decided(id, 1).await.unwrap());
         assert_eq!(store.rounds(id).await.unwrap()[0], rounds[0]);
     }
-}
-
-#[cfg(test)]
-mod infeasible_tests {
-    use std::path::Path;
-
-    use super::*;
-    use crate::store::JobResults;
 
     /// A bound no point of the box meets: segregation = 1 + x0 ≥ 0 everywhere.
-    const STUDY: &str = "\
+    const INFEASIBLE: &str = "\
 name: infeasible
 solver: liggghts
 factors:
@@ -513,42 +548,14 @@ objective:
 
     #[tokio::test]
     async fn an_infeasible_bound_says_the_best_value_reached() {
-        let dir = tempfile::tempdir().unwrap();
-        let store = Store::open(dir.path()).await.unwrap();
-        let study = Study::from_text(Path::new("infeasible.yaml"), STUDY, None).unwrap();
-        let id = store
-            .insert_study(
-                &study,
-                Path::new("infeasible.yaml"),
-                &dir.path().join("runs"),
-            )
-            .await
-            .unwrap();
-        let coded: HashMap<i64, Vec<f64>> = store
-            .points(id)
-            .await
-            .unwrap()
-            .into_iter()
-            .map(|p| (p.id, p.coded))
-            .collect();
-        for job in store.jobs(id).await.unwrap() {
-            let x = &coded[&job.point_id];
-            store.mark_rendered(job.id).await.unwrap();
-            store.mark_running(job.id, "1:1", 0.0).await.unwrap();
-            let results = JobResults {
-                responses: vec![
-                    (
-                        "discharge_rate".into(),
-                        1.0 - (x[0] - 0.5).powi(2) - x[1].powi(2),
-                    ),
-                    ("segregation_ratio".into(), 1.0 + x[0]),
-                ],
-                series: vec![],
-                note: None,
-            };
-            store.mark_succeeded(job.id, 0, &results).await.unwrap();
-        }
-        advance(&store, id, &study, &dir.path().join("runs/infeasible"))
+        let run = testing::round_run(INFEASIBLE, |coded, _| JobResults {
+            responses: responses(coded),
+            series: vec![],
+            note: None,
+        })
+        .await;
+        let (store, id) = (&run.store, run.id);
+        advance(store, id, &run.study, &run.runs_dir())
             .await
             .unwrap();
         let rounds = store.rounds(id).await.unwrap();

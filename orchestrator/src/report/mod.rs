@@ -586,7 +586,6 @@ async fn runs_section(store: &Store, data: &Data<'_>) -> Result<String, StoreErr
 mod tests {
     use super::*;
     use crate::store::JobResults;
-    use std::path::Path;
 
     /// Two factors, an objective, Monte Carlo over one factor; one response constant.
     const STUDY: &str = "\
@@ -625,31 +624,13 @@ uncertainty:
 
     #[tokio::test]
     async fn a_report_of_a_known_round_has_every_figure_warning_and_unit() {
-        let dir = tempfile::tempdir().unwrap();
-        let store = Store::open(dir.path()).await.unwrap();
-        let study = Study::from_text(Path::new("known.yaml"), STUDY, None).unwrap();
-        let id = store
-            .insert_study(&study, Path::new("known.yaml"), &dir.path().join("runs"))
-            .await
-            .unwrap();
-        let points: HashMap<i64, Vec<f64>> = store
-            .points(id)
-            .await
-            .unwrap()
-            .into_iter()
-            .map(|p| (p.id, p.coded))
-            .collect();
-        for (k, job) in store.jobs(id).await.unwrap().iter().enumerate() {
-            store.mark_rendered(job.id).await.unwrap();
-            store.mark_running(job.id, "1:1", 0.0).await.unwrap();
-            let results = results(&points[&job.point_id], k);
-            store.mark_succeeded(job.id, 0, &results).await.unwrap();
-        }
-        crate::rounds::advance(&store, id, &study, &dir.path().join("runs/known"))
+        let run = crate::rounds::testing::round_run(STUDY, results).await;
+        let (store, id, study) = (&run.store, run.id, &run.study);
+        crate::rounds::advance(store, id, study, &run.runs_dir())
             .await
             .unwrap();
         let row = store.study_by_name("known").await.unwrap().unwrap();
-        let html = render(&store, &row, Some(&study)).await.unwrap();
+        let html = render(store, &row, Some(study)).await.unwrap();
 
         // A heat map, predicted against observed and a Pareto chart for the rate; none
         // for the constant fraction; the trust region; one series chart.

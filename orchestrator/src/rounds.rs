@@ -18,6 +18,7 @@ use orch_metamodel::{
 
 use crate::store::{Decision, FitRecord, JobState, RoundRecord, Store, StoreError};
 use crate::study::{DesignPoint, Objective, Study};
+use crate::surfaces;
 
 /// What happened after a round.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -83,7 +84,8 @@ pub async fn advance(
     Ok(outcome)
 }
 
-/// Coded points and observed values of one response over the succeeded jobs of a round.
+/// Coded points and observed values of one response: the design runs the round fits
+/// (its own and earlier rounds' inside its box) and its own held-out test runs.
 struct Observed {
     design: (Vec<Vec<f64>>, Vec<f64>),
     test: (Vec<Vec<f64>>, Vec<f64>),
@@ -95,39 +97,41 @@ async fn observed(
     round: i64,
     responses: &[String],
 ) -> Result<HashMap<String, Observed>, StoreError> {
-    let points: HashMap<i64, (Vec<f64>, bool)> = store
+    let design_runs = surfaces::design_runs(store, study_id)
+        .await?
+        .remove(&round)
+        .unwrap_or_default();
+    let test_points: HashMap<i64, Vec<f64>> = store
         .points(study_id)
         .await?
         .into_iter()
-        .filter(|p| p.round == round)
-        .map(|p| (p.id, (p.coded, p.purpose == "test")))
+        .filter(|p| p.round == round && p.purpose == "test")
+        .map(|p| (p.id, p.coded))
         .collect();
     let values = store.responses(study_id).await?;
-    let jobs: Vec<_> = store
+    let test_jobs: Vec<_> = store
         .jobs(study_id)
         .await?
         .into_iter()
-        .filter(|j| points.contains_key(&j.point_id) && j.state() == JobState::Succeeded)
+        .filter(|j| test_points.contains_key(&j.point_id) && j.state() == JobState::Succeeded)
         .collect();
     let mut out = HashMap::new();
     for response in responses {
-        let mut observed = Observed {
-            design: (vec![], vec![]),
-            test: (vec![], vec![]),
-        };
-        for job in &jobs {
+        let design = surfaces::observed(&design_runs, response);
+        let mut test = (vec![], vec![]);
+        for job in &test_jobs {
             if let Some(value) = values.get(&job.id).and_then(|v| v.get(response)) {
-                let (coded, is_test) = &points[&job.point_id];
-                let set = if *is_test {
-                    &mut observed.test
-                } else {
-                    &mut observed.design
-                };
-                set.0.push(coded.clone());
-                set.1.push(*value);
+                test.0.push(test_points[&job.point_id].clone());
+                test.1.push(*value);
             }
         }
-        out.insert(response.clone(), observed);
+        out.insert(
+            response.clone(),
+            Observed {
+                design: (design.coded, design.y),
+                test,
+            },
+        );
     }
     Ok(out)
 }

@@ -1,12 +1,13 @@
 //! Response surfaces refitted from what the store keeps: each round's succeeded design
-//! runs and the basis and order of its stored fit. The fit is deterministic, so the
+//! runs (its own and earlier rounds' inside its box) and the basis and order of its
+//! stored fit. The fit is deterministic, so the
 //! refit equals the stored one; it also gives what the store does not keep — the
 //! leave-one-out predictions, the leverages and the surface between the points — for
 //! `orch report` and for the warnings of `orch status` and `orch fit`.
 
 use std::collections::{BTreeMap, HashMap};
 
-use orch_metamodel::{Basis, BasisKind, Fit};
+use orch_metamodel::{Basis, BasisKind, FactorRange, Fit};
 
 use crate::store::{JobState, Store, StoreError, StoredFit};
 
@@ -36,8 +37,60 @@ pub struct Observed {
     pub y: Vec<f64>,
 }
 
-/// Succeeded design runs of every round, by round: what each round's fits used.
+/// Succeeded design runs each round's fits use, by round: the round's own and every
+/// earlier round's that lie inside its box (a smaller box keeps what was already
+/// measured inside it), coded in that round's box.
 pub async fn design_runs(
+    store: &Store,
+    study_id: i64,
+) -> Result<BTreeMap<i64, Vec<Run>>, StoreError> {
+    let own = own_design_runs(store, study_id).await?;
+    let mut out = BTreeMap::new();
+    for &round in own.keys() {
+        let ranges = store.round_ranges(study_id, round).await?;
+        out.insert(round, runs_inside(&own, round, &ranges));
+    }
+    Ok(out)
+}
+
+/// The runs of rounds up to `round` whose natural point lies in `ranges` (the
+/// round's box), coded in it; the round's own runs keep their stored coding.
+pub fn runs_inside(
+    own: &BTreeMap<i64, Vec<Run>>,
+    round: i64,
+    ranges: &[FactorRange],
+) -> Vec<Run> {
+    let inside = |natural: &[f64]| {
+        natural.iter().zip(ranges).all(|(v, r)| {
+            let slack = 1e-9 * (r.max - r.min).abs();
+            *v >= r.min - slack && *v <= r.max + slack
+        })
+    };
+    let mut runs: Vec<Run> = Vec::new();
+    for (&earlier, earlier_runs) in own.range(..round) {
+        debug_assert!(earlier < round);
+        runs.extend(
+            earlier_runs
+                .iter()
+                .filter(|run| inside(&run.natural))
+                .map(|run| Run {
+                    coded: run
+                        .natural
+                        .iter()
+                        .zip(ranges)
+                        .map(|(v, r)| r.to_coded(*v).clamp(-1.0, 1.0))
+                        .collect(),
+                    ..run.clone()
+                }),
+        );
+    }
+    runs.extend(own.get(&round).into_iter().flatten().cloned());
+    runs
+}
+
+/// Succeeded runs on design points (not held-out test points), by the round that ran
+/// them.
+async fn own_design_runs(
     store: &Store,
     study_id: i64,
 ) -> Result<BTreeMap<i64, Vec<Run>>, StoreError> {
@@ -160,5 +213,37 @@ mod tests {
             "{} vs {expected}",
             loo[0]
         );
+    }
+
+    #[test]
+    fn a_round_fits_earlier_runs_inside_its_box_recoded_and_its_own_as_stored() {
+        let natural_run = |job: &str, natural: f64, coded: f64| Run {
+            job: job.into(),
+            coded: vec![coded],
+            natural: vec![natural],
+            responses: BTreeMap::new(),
+        };
+        // Round 0 over [0, 10]; round 1 over [4, 8].
+        let own = BTreeMap::from([
+            (
+                0,
+                vec![
+                    natural_run("r0-0", 0.0, -1.0),
+                    natural_run("r0-1", 5.0, 0.0),
+                    natural_run("r0-2", 8.0, 0.6),
+                    natural_run("r0-3", 10.0, 1.0),
+                ],
+            ),
+            (1, vec![natural_run("r1-0", 6.0, 0.0)]),
+        ]);
+        let box_1 = [FactorRange { min: 4.0, max: 8.0 }];
+        let runs = runs_inside(&own, 1, &box_1);
+        let jobs: Vec<&str> = runs.iter().map(|r| r.job.as_str()).collect();
+        assert_eq!(jobs, ["r0-1", "r0-2", "r1-0"]);
+        assert_eq!(runs[0].coded, [-0.5]);
+        assert_eq!(runs[1].coded, [1.0]);
+        assert_eq!(runs[2].coded, [0.0]);
+        // Round 0 sees only its own runs.
+        assert_eq!(runs_inside(&own, 0, &[FactorRange { min: 0.0, max: 10.0 }]).len(), 4);
     }
 }

@@ -319,6 +319,16 @@ fn dry_run_summary(study: &Study) -> String {
         None => out.push_str("objective: none (one round, surfaces fitted, no optimum)\n"),
     }
     let _ = writeln!(out, "rounds: at most {}", study.rounds);
+    let tests = study.metamodel.test_points;
+    if tests > 0 {
+        let grid = matches!(study.design, orch_metamodel::DesignKind::FullFactorial { .. });
+        let why = if grid {
+            " (off the grid: on a full-factorial grid leave-one-out can be exactly zero while the surface is wrong between the grid lines)"
+        } else {
+            ""
+        };
+        let _ = writeln!(out, "held-out test points per round: {tests}{why}");
+    }
     out
 }
 

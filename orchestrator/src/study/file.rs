@@ -275,9 +275,10 @@ pub struct MetamodelFile {
     #[serde(default = "two")]
     pub order: u32,
     /// Extra Latin-hypercube points per round, run but left out of the fit, to
-    /// measure prediction error (default 0).
+    /// measure prediction error (default 0; `k + 2`, at least 4, on a full-factorial
+    /// grid with an objective).
     #[serde(default)]
-    pub test_points: usize,
+    pub test_points: Option<usize>,
 }
 
 impl Default for MetamodelFile {
@@ -285,7 +286,7 @@ impl Default for MetamodelFile {
         MetamodelFile {
             basis: BasisFile::Legendre,
             order: 2,
-            test_points: 0,
+            test_points: None,
         }
     }
 }

@@ -900,7 +900,9 @@ impl Checker<'_> {
             order: file.metamodel.order,
             shrink,
             tolerance: file.next_round.tolerance,
-            test_points: file.metamodel.test_points,
+            test_points: file.metamodel.test_points.unwrap_or_else(|| {
+                default_test_points(&design_kind, factors.len(), objective.is_some())
+            }),
         };
         if metamodel.test_points == 1 || metamodel.test_points > 1000 {
             return Err(self.error(
@@ -1323,6 +1325,17 @@ impl Checker<'_> {
             time_limit: executor.time_limit.map(|t| t.0),
             poll_interval,
         })
+    }
+}
+
+/// Held-out test points a study gets when it names none: on a full-factorial grid with
+/// an objective, `k + 2` off-grid points (at least 4), because on a grid leave-one-out
+/// can be exactly zero while the surface is wrong between the grid lines; none
+/// otherwise.
+pub fn default_test_points(design: &DesignKind, n_factors: usize, has_objective: bool) -> usize {
+    match design {
+        DesignKind::FullFactorial { .. } if has_objective => (n_factors + 2).max(4),
+        _ => 0,
     }
 }
 

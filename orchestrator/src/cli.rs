@@ -321,7 +321,10 @@ fn dry_run_summary(study: &Study) -> String {
     let _ = writeln!(out, "rounds: at most {}", study.rounds);
     let tests = study.metamodel.test_points;
     if tests > 0 {
-        let grid = matches!(study.design, orch_metamodel::DesignKind::FullFactorial { .. });
+        let grid = matches!(
+            study.design,
+            orch_metamodel::DesignKind::FullFactorial { .. }
+        );
         let why = if grid {
             " (off the grid: on a full-factorial grid leave-one-out can be exactly zero while the surface is wrong between the grid lines)"
         } else {

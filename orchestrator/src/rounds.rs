@@ -170,6 +170,11 @@ async fn analyse(
             runs: observed.design.1.len(),
             result,
             test,
+            model: None,
+            spec: None,
+            candidates: Vec::new(),
+            lack_of_fit: None,
+            sensitivities: Vec::new(),
         });
     }
 
@@ -177,7 +182,9 @@ async fn analyse(
         round,
         fits,
         optimum: None,
+        optimum_interval: None,
         uncertainty: None,
+        uncertainty_total: None,
         decision: Decision::LastRound,
         note: String::new(),
         next: None,

@@ -698,6 +698,7 @@ mod tests {
             r2_test: None,
             error: None,
             terms: vec![("1".into(), 1.0, None, Some(1e15))],
+            ..Default::default()
         }
     }
 
@@ -728,6 +729,7 @@ mod tests {
             optimum: Some(("rate".into(), "maximise".into(), 1.5, vec![0.028])),
             uncertainty: None,
             decision: None,
+            ..Default::default()
         };
         let runs = BTreeMap::from([(
             0,
@@ -779,6 +781,7 @@ mod tests {
             optimum: None,
             uncertainty: None,
             decision: None,
+            ..Default::default()
         };
         let factors = vec![FactorRow {
             name: "x".into(),

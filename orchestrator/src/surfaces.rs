@@ -55,11 +55,7 @@ pub async fn design_runs(
 
 /// The runs of rounds up to `round` whose natural point lies in `ranges` (the
 /// round's box), coded in it; the round's own runs keep their stored coding.
-pub fn runs_inside(
-    own: &BTreeMap<i64, Vec<Run>>,
-    round: i64,
-    ranges: &[FactorRange],
-) -> Vec<Run> {
+pub fn runs_inside(own: &BTreeMap<i64, Vec<Run>>, round: i64, ranges: &[FactorRange]) -> Vec<Run> {
     let inside = |natural: &[f64]| {
         natural.iter().zip(ranges).all(|(v, r)| {
             let slack = 1e-9 * (r.max - r.min).abs();
@@ -195,6 +191,7 @@ mod tests {
             r2_test: None,
             error: None,
             terms: vec![],
+            ..Default::default()
         };
         let fit = refit(&stored, &["x".to_string()], &observed).unwrap();
         let loo = loo_predictions(&fit, &observed.y).unwrap();
@@ -244,6 +241,17 @@ mod tests {
         assert_eq!(runs[1].coded, [1.0]);
         assert_eq!(runs[2].coded, [0.0]);
         // Round 0 sees only its own runs.
-        assert_eq!(runs_inside(&own, 0, &[FactorRange { min: 0.0, max: 10.0 }]).len(), 4);
+        assert_eq!(
+            runs_inside(
+                &own,
+                0,
+                &[FactorRange {
+                    min: 0.0,
+                    max: 10.0
+                }]
+            )
+            .len(),
+            4
+        );
     }
 }

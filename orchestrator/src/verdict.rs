@@ -229,6 +229,7 @@ mod tests {
             terms: (0..terms)
                 .map(|i| (format!("t{i}"), 1.0, None, None))
                 .collect(),
+            ..Default::default()
         }
     }
 
@@ -337,6 +338,7 @@ mod tests {
             optimum: Some(("rate".into(), "maximise".into(), 1.0, vec![0.024, 0.0004])),
             uncertainty: None,
             decision: None,
+            ..Default::default()
         };
         let warnings = optimum_warnings(&round, &factors(), &[]);
         assert_eq!(warnings.len(), 1, "{warnings:?}");

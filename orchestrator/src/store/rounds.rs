@@ -24,6 +24,58 @@ pub struct FitRecord {
     pub result: Result<Fit, String>,
     /// Held-out test runs and the fit's error on them.
     pub test: Option<(usize, TestQuality)>,
+    /// The chosen surrogate's name for people, e.g. `quadratic, 5 of 6 terms`.
+    pub model: Option<String>,
+    /// JSON that rebuilds the chosen surrogate without a search.
+    pub spec: Option<String>,
+    /// Every candidate the model choice compared.
+    pub candidates: Vec<CandidateScore>,
+    /// The lack-of-fit test against replicates, when there are replicates.
+    pub lack_of_fit: Option<LackOfFitRow>,
+    /// Sobol indices of each factor over the round's box.
+    pub sensitivities: Vec<Sensitivity>,
+}
+
+/// How one candidate surrogate scored in the automatic model choice.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CandidateScore {
+    /// Its name, e.g. `cubic, 7 of 10 terms` or `kriging, Matérn 5/2, constant trend`.
+    pub model: String,
+    /// Fitted parameters (terms, or trend terms plus hyperparameters).
+    pub parameters: usize,
+    /// Root mean square of its leave-one-out residuals, in the response's unit.
+    pub loo_rmse: Option<f64>,
+    /// True for the one the round uses.
+    pub chosen: bool,
+    /// Why it has no score, or why it was passed over despite it.
+    pub note: Option<String>,
+}
+
+/// The lack-of-fit F test of a surface against the pure error of replicate runs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LackOfFitRow {
+    /// `F = (SS_lof / dof_lof) / (SS_pe / dof_pe)`.
+    pub f: f64,
+    /// `P(F' ≥ F)` under the hypothesis that the surface's form is right.
+    pub p: f64,
+    /// Degrees of freedom of the lack of fit.
+    pub lack_of_fit_dof: usize,
+    /// Degrees of freedom of the pure error.
+    pub pure_error_dof: usize,
+}
+
+/// Sobol indices of one factor for one response, over the round's box (factors
+/// uniform on it), each `(estimate, low, high)` of a 95 % interval.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Sensitivity {
+    /// Index of the factor.
+    pub factor: usize,
+    /// `analytic` (from Legendre coefficients) or `saltelli` (Monte Carlo).
+    pub method: String,
+    /// First-order index: the share of the variance the factor explains alone.
+    pub first: (f64, f64, f64),
+    /// Total index: its share including every interaction.
+    pub total: (f64, f64, f64),
 }
 
 /// Everything the analysis of one round decided, recorded at once.
@@ -35,8 +87,12 @@ pub struct RoundRecord {
     pub fits: Vec<FitRecord>,
     /// `(response, goal, optimum in coded units, natural values)`.
     pub optimum: Option<(String, &'static str, Optimum, Vec<f64>)>,
+    /// The 95 % prediction interval of the objective at the optimum `(low, high)`.
+    pub optimum_interval: Option<(f64, f64)>,
     /// `(response, spread, seed)` at the optimum.
     pub uncertainty: Option<(String, Spread, u64)>,
+    /// The spread at the optimum with the surrogate's error sampled too.
+    pub uncertainty_total: Option<Spread>,
     /// What the stage decided.
     pub decision: Decision,
     /// Why, for people.
@@ -46,7 +102,7 @@ pub struct RoundRecord {
 }
 
 /// A stored fit.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Default)]
 pub struct StoredFit {
     /// Response.
     pub response: String,
@@ -76,10 +132,20 @@ pub struct StoredFit {
     pub error: Option<String>,
     /// `(name, coefficient, standard error, t)`.
     pub terms: Vec<(String, f64, Option<f64>, Option<f64>)>,
+    /// The surrogate's name for people (none before version 9: the full polynomial).
+    pub model: Option<String>,
+    /// JSON that rebuilds the surrogate (none before version 9).
+    pub spec: Option<String>,
+    /// The candidates the model choice compared.
+    pub candidates: Vec<CandidateScore>,
+    /// The lack-of-fit test, when there were replicates.
+    pub lack_of_fit: Option<LackOfFitRow>,
+    /// Sobol indices per factor.
+    pub sensitivities: Vec<Sensitivity>,
 }
 
 /// A stored round with its conclusions.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Default)]
 pub struct StoredRound {
     /// Round number.
     pub round: i64,
@@ -89,8 +155,12 @@ pub struct StoredRound {
     pub fits: Vec<StoredFit>,
     /// `(response, goal, value, natural values per factor)`.
     pub optimum: Option<(String, String, f64, Vec<f64>)>,
-    /// Spread at the optimum.
+    /// The 95 % prediction interval of the objective at the optimum.
+    pub optimum_interval: Option<(f64, f64)>,
+    /// Spread at the optimum through the surface (input uncertainty only).
     pub uncertainty: Option<Spread>,
+    /// Spread at the optimum with the surrogate's error sampled too.
+    pub uncertainty_total: Option<Spread>,
     /// `(decision, note)`.
     pub decision: Option<(Decision, String)>,
 }
@@ -160,8 +230,9 @@ impl Store {
                 .unwrap_or(0);
             let fit_id: i64 = sqlx::query(
                 "INSERT INTO fits (study_id, round, response, basis, ord, runs, terms, r2, adjusted_r2, sigma_cross,
-                                   r2_cross, press, residual_std, error, test_runs, sigma_test, r2_test)
-                 VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?) RETURNING id",
+                                   r2_cross, press, residual_std, error, test_runs, sigma_test, r2_test,
+                                   model, spec, lack_of_fit_f, lack_of_fit_p, lack_of_fit_dof, pure_error_dof)
+                 VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?) RETURNING id",
             )
             .bind(study_id)
             .bind(round)
@@ -180,6 +251,12 @@ impl Store {
             .bind(fit.test.map(|t| t.0 as i64).unwrap_or(0))
             .bind(fit.test.map(|t| t.1.sigma_test_rel_percent))
             .bind(fit.test.map(|t| t.1.r2))
+            .bind(&fit.model)
+            .bind(&fit.spec)
+            .bind(fit.lack_of_fit.map(|l| l.f))
+            .bind(fit.lack_of_fit.map(|l| l.p))
+            .bind(fit.lack_of_fit.map(|l| l.lack_of_fit_dof as i64))
+            .bind(fit.lack_of_fit.map(|l| l.pure_error_dof as i64))
             .fetch_one(&mut *tx)
             .await
             .map_err(query_error("record a fit"))?
@@ -198,15 +275,45 @@ impl Store {
                         .map_err(query_error("record a fit's terms"))?;
                 }
             }
+            for (idx, c) in fit.candidates.iter().enumerate() {
+                sqlx::query("INSERT INTO fit_candidates (fit_id, idx, model, parameters, loo_rmse, chosen, note) VALUES (?, ?, ?, ?, ?, ?, ?)")
+                    .bind(fit_id)
+                    .bind(idx as i64)
+                    .bind(&c.model)
+                    .bind(c.parameters as i64)
+                    .bind(c.loo_rmse.filter(|v| v.is_finite()))
+                    .bind(c.chosen)
+                    .bind(&c.note)
+                    .execute(&mut *tx)
+                    .await
+                    .map_err(query_error("record a fit's candidates"))?;
+            }
+            for s in &fit.sensitivities {
+                sqlx::query("INSERT INTO sensitivities (fit_id, factor_idx, method, first, first_low, first_high, total, total_low, total_high) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)")
+                    .bind(fit_id)
+                    .bind(s.factor as i64)
+                    .bind(&s.method)
+                    .bind(s.first.0)
+                    .bind(s.first.1)
+                    .bind(s.first.2)
+                    .bind(s.total.0)
+                    .bind(s.total.1)
+                    .bind(s.total.2)
+                    .execute(&mut *tx)
+                    .await
+                    .map_err(query_error("record a fit's sensitivities"))?;
+            }
         }
         if let Some((response, goal, optimum, natural)) = &record.optimum {
-            sqlx::query("INSERT INTO optima (study_id, round, response, goal, value, exact) VALUES (?, ?, ?, ?, ?, ?)")
+            sqlx::query("INSERT INTO optima (study_id, round, response, goal, value, exact, interval_low, interval_high) VALUES (?, ?, ?, ?, ?, ?, ?, ?)")
                 .bind(study_id)
                 .bind(round)
                 .bind(response)
                 .bind(goal)
                 .bind(optimum.value)
                 .bind(optimum.exact)
+                .bind(record.optimum_interval.map(|i| i.0))
+                .bind(record.optimum_interval.map(|i| i.1))
                 .execute(&mut *tx)
                 .await
                 .map_err(query_error("record an optimum"))?;
@@ -224,8 +331,9 @@ impl Store {
         }
         if let Some((response, spread, seed)) = &record.uncertainty {
             sqlx::query(
-                "INSERT INTO uncertainty (study_id, round, response, samples, seed, mean, std, q025, q975, q05, q95)
-                 VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                "INSERT INTO uncertainty (study_id, round, response, samples, seed, mean, std, q025, q975, q05, q95,
+                                          total_mean, total_std, total_q025, total_q975, total_q05, total_q95)
+                 VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
             )
             .bind(study_id)
             .bind(round)
@@ -238,6 +346,12 @@ impl Store {
             .bind(spread.q975)
             .bind(spread.q05)
             .bind(spread.q95)
+            .bind(record.uncertainty_total.map(|t| t.mean))
+            .bind(record.uncertainty_total.map(|t| t.std))
+            .bind(record.uncertainty_total.map(|t| t.q025))
+            .bind(record.uncertainty_total.map(|t| t.q975))
+            .bind(record.uncertainty_total.map(|t| t.q05))
+            .bind(record.uncertainty_total.map(|t| t.q95))
             .execute(&mut *tx)
             .await
             .map_err(query_error("record an uncertainty"))?;
@@ -300,7 +414,8 @@ impl Store {
             let ranges = self.round_ranges(study_id, round).await?;
             let fit_rows = sqlx::query(
                 "SELECT id, response, basis, ord, runs, r2, adjusted_r2, sigma_cross, r2_cross, press, error,
-                        test_runs, sigma_test, r2_test
+                        test_runs, sigma_test, r2_test, model, spec, lack_of_fit_f, lack_of_fit_p,
+                        lack_of_fit_dof, pure_error_dof
                  FROM fits WHERE study_id = ? AND round = ? ORDER BY id",
             )
             .bind(study_id)
@@ -317,7 +432,58 @@ impl Store {
                         .fetch_all(&self.pool)
                         .await
                         .map_err(query_error("read a fit's terms"))?;
+                let candidates = sqlx::query(
+                    "SELECT model, parameters, loo_rmse, chosen, note FROM fit_candidates WHERE fit_id = ? ORDER BY idx",
+                )
+                .bind(id)
+                .fetch_all(&self.pool)
+                .await
+                .map_err(query_error("read a fit's candidates"))?
+                .into_iter()
+                .map(|r| CandidateScore {
+                    model: r.get(0),
+                    parameters: r.get::<i64, _>(1) as usize,
+                    loo_rmse: r.get(2),
+                    chosen: r.get(3),
+                    note: r.get(4),
+                })
+                .collect();
+                let sensitivities = sqlx::query(
+                    "SELECT factor_idx, method, first, first_low, first_high, total, total_low, total_high
+                     FROM sensitivities WHERE fit_id = ? ORDER BY factor_idx",
+                )
+                .bind(id)
+                .fetch_all(&self.pool)
+                .await
+                .map_err(query_error("read a fit's sensitivities"))?
+                .into_iter()
+                .map(|r| Sensitivity {
+                    factor: r.get::<i64, _>(0) as usize,
+                    method: r.get(1),
+                    first: (r.get(2), r.get(3), r.get(4)),
+                    total: (r.get(5), r.get(6), r.get(7)),
+                })
+                .collect();
+                let lack_of_fit = match (
+                    row.get::<Option<f64>, _>(16),
+                    row.get::<Option<f64>, _>(17),
+                    row.get::<Option<i64>, _>(18),
+                    row.get::<Option<i64>, _>(19),
+                ) {
+                    (Some(f), Some(p), Some(lof), Some(pe)) => Some(LackOfFitRow {
+                        f,
+                        p,
+                        lack_of_fit_dof: lof as usize,
+                        pure_error_dof: pe as usize,
+                    }),
+                    _ => None,
+                };
                 fits.push(StoredFit {
+                    model: row.get(14),
+                    spec: row.get(15),
+                    candidates,
+                    lack_of_fit,
+                    sensitivities,
                     response: row.get(1),
                     basis: row.get(2),
                     order: row.get(3),
@@ -334,17 +500,18 @@ impl Store {
                     terms,
                 });
             }
-            let optimum: Option<(String, String, f64)> = sqlx::query_as(
-                "SELECT response, goal, value FROM optima WHERE study_id = ? AND round = ?",
+            let optimum: Option<(String, String, f64, Option<f64>, Option<f64>)> = sqlx::query_as(
+                "SELECT response, goal, value, interval_low, interval_high FROM optima WHERE study_id = ? AND round = ?",
             )
             .bind(study_id)
             .bind(round)
             .fetch_optional(&self.pool)
             .await
             .map_err(query_error("read an optimum"))?;
+            let optimum_interval = optimum.as_ref().and_then(|o| o.3.zip(o.4));
             let optimum = match optimum {
                 None => None,
-                Some((response, goal, value)) => {
+                Some((response, goal, value, _, _)) => {
                     let natural: Vec<f64> = sqlx::query_scalar(
                         "SELECT natural FROM optimum_values WHERE study_id = ? AND round = ? ORDER BY factor_idx",
                     )
@@ -356,21 +523,29 @@ impl Store {
                     Some((response, goal, value, natural))
                 }
             };
-            let uncertainty = sqlx::query("SELECT samples, mean, std, q025, q975, q05, q95 FROM uncertainty WHERE study_id = ? AND round = ?")
-                .bind(study_id)
-                .bind(round)
-                .fetch_optional(&self.pool)
-                .await
-                .map_err(query_error("read an uncertainty"))?
-                .map(|row| Spread {
+            let uncertainty_row = sqlx::query(
+                "SELECT samples, mean, std, q025, q975, q05, q95,
+                        total_mean, total_std, total_q025, total_q975, total_q05, total_q95
+                 FROM uncertainty WHERE study_id = ? AND round = ?",
+            )
+            .bind(study_id)
+            .bind(round)
+            .fetch_optional(&self.pool)
+            .await
+            .map_err(query_error("read an uncertainty"))?;
+            let spread_at = |row: &sqlx::sqlite::SqliteRow, at: usize| -> Option<Spread> {
+                Some(Spread {
                     samples: row.get::<i64, _>(0) as usize,
-                    mean: row.get(1),
-                    std: row.get(2),
-                    q025: row.get(3),
-                    q975: row.get(4),
-                    q05: row.get(5),
-                    q95: row.get(6),
-                });
+                    mean: row.get::<Option<f64>, _>(at)?,
+                    std: row.get::<Option<f64>, _>(at + 1)?,
+                    q025: row.get::<Option<f64>, _>(at + 2)?,
+                    q975: row.get::<Option<f64>, _>(at + 3)?,
+                    q05: row.get::<Option<f64>, _>(at + 4)?,
+                    q95: row.get::<Option<f64>, _>(at + 5)?,
+                })
+            };
+            let uncertainty = uncertainty_row.as_ref().and_then(|r| spread_at(r, 1));
+            let uncertainty_total = uncertainty_row.as_ref().and_then(|r| spread_at(r, 7));
             let decision: Option<(String, String)> = sqlx::query_as(
                 "SELECT decision, note FROM proposals WHERE study_id = ? AND round = ?",
             )
@@ -388,7 +563,9 @@ impl Store {
                 ranges,
                 fits,
                 optimum,
+                optimum_interval,
                 uncertainty,
+                uncertainty_total,
                 decision,
             });
         }

@@ -366,11 +366,23 @@ fn a_full_factorial_grid_with_an_objective_gets_off_grid_test_points_unless_told
     );
     let objective = "objective: {response: discharge_rate, goal: maximise}\n";
     // k + 2 = 5 off-grid points for three factors on a grid with an objective.
-    assert_eq!(load(&format!("{grid}{objective}")).unwrap().metamodel.test_points, 5);
+    assert_eq!(
+        load(&format!("{grid}{objective}"))
+            .unwrap()
+            .metamodel
+            .test_points,
+        5
+    );
     // A sweep without an objective, and a study that says 0, get none.
     assert_eq!(load(&grid).unwrap().metamodel.test_points, 0);
     let none = format!("{grid}{objective}metamodel: {{test_points: 0}}\n");
     assert_eq!(load(&none).unwrap().metamodel.test_points, 0);
     // Other designs keep the old default.
-    assert_eq!(load(&format!("{VALID}{objective}")).unwrap().metamodel.test_points, 0);
+    assert_eq!(
+        load(&format!("{VALID}{objective}"))
+            .unwrap()
+            .metamodel
+            .test_points,
+        0
+    );
 }

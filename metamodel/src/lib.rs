@@ -18,10 +18,11 @@ pub mod student;
 
 pub use basis::{Basis, BasisKind};
 pub use design::{run_count, CentralCompositeAlpha, Design, DesignError, DesignKind, MAX_RUNS};
-pub use fit::{Fit, FitError, Quality, TestQuality};
+pub use fit::{Fit, FitError, Interval, Quality, TestQuality};
 pub use optimise::{optimise, optimise_subject_to, BoxBounds, Constraint, Goal, Optimum};
 pub use propagate::{propagate, Distribution, Spread};
 pub use scaling::FactorRange;
 pub use student::{
-    student_t_cdf, student_t_quantile, welch_interval, SampleSummary, WelchInterval,
+    f_cdf, f_quantile, f_survival, student_t_cdf, student_t_quantile, welch_interval,
+    SampleSummary, WelchInterval,
 };

@@ -10,6 +10,7 @@
 pub mod basis;
 pub mod design;
 pub mod fit;
+pub mod lack_of_fit;
 pub mod optimise;
 pub mod propagate;
 pub mod propose;
@@ -19,6 +20,7 @@ pub mod student;
 pub use basis::{Basis, BasisKind};
 pub use design::{run_count, CentralCompositeAlpha, Design, DesignError, DesignKind, MAX_RUNS};
 pub use fit::{Fit, FitError, Interval, Quality, TestQuality};
+pub use lack_of_fit::{lack_of_fit, LackOfFit};
 pub use optimise::{optimise, optimise_subject_to, BoxBounds, Constraint, Goal, Optimum};
 pub use propagate::{propagate, Distribution, Spread};
 pub use scaling::FactorRange;

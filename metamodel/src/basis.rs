@@ -12,12 +12,14 @@ pub enum BasisKind {
     Legendre,
 }
 
-/// A complete polynomial basis of total degree `order` in `n_factors` variables.
+/// A polynomial basis in `n_factors` variables: a list of terms, each a product of
+/// one-dimensional polynomials. [`Basis::complete`] gives every term up to a total degree;
+/// [`Basis::from_terms`] any subset, such as what [`crate::prune::prune`] leaves.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Basis {
     /// Kind of the one-dimensional factors.
     pub kind: BasisKind,
-    /// Highest total degree.
+    /// Highest total degree among the terms (for a complete basis, the degree asked for).
     pub order: u32,
     /// Number of variables.
     pub n_factors: usize,
@@ -48,6 +50,23 @@ impl Basis {
             });
             terms.extend(of_degree);
         }
+        Basis {
+            kind,
+            order,
+            n_factors,
+            terms,
+        }
+    }
+
+    /// A basis of exactly `terms` (exponent vectors of length `n_factors`, kept in the
+    /// given order), whose `order` is their highest total degree. Used for reduced models:
+    /// the names and rows follow the terms, whatever is missing.
+    pub fn from_terms(kind: BasisKind, n_factors: usize, terms: Vec<Vec<u32>>) -> Basis {
+        let order = terms
+            .iter()
+            .map(|t| t.iter().sum::<u32>())
+            .max()
+            .unwrap_or(0);
         Basis {
             kind,
             order,
@@ -193,6 +212,40 @@ mod tests {
         assert_eq!(Basis::complete(BasisKind::Monomial, 4, 2).len(), 15);
         assert_eq!(Basis::complete(BasisKind::Legendre, 3, 3).len(), 20);
         assert_eq!(Basis::complete(BasisKind::Monomial, 3, 1).len(), 4);
+    }
+
+    #[test]
+    fn an_incomplete_term_list_names_and_evaluates_its_own_terms() {
+        let full = Basis::complete(BasisKind::Legendre, 3, 2);
+        // Keep 1, a, c, a^2, a*c.
+        let kept: Vec<Vec<u32>> = full
+            .terms
+            .iter()
+            .filter(|t| t[1] == 0 && t[2] < 2)
+            .cloned()
+            .collect();
+        let reduced = Basis::from_terms(BasisKind::Legendre, 3, kept);
+        assert_eq!(reduced.order, 2);
+        let factors = ["a".to_string(), "b".to_string(), "c".to_string()];
+        assert_eq!(
+            reduced.names(&factors),
+            ["1", "P1(a)", "P1(c)", "P2(a)", "P1(a)*P1(c)"]
+        );
+        let point = [0.3, -0.7, 0.9];
+        let full_row = full.row(&point);
+        let full_names = full.names(&factors);
+        for (name, value) in reduced.names(&factors).iter().zip(reduced.row(&point)) {
+            let index = full_names.iter().position(|n| n == name).unwrap();
+            assert_eq!(value, full_row[index], "{name}");
+        }
+        // Without its second-degree terms the order drops to one.
+        let linear = Basis::from_terms(BasisKind::Monomial, 3, full.terms[..4].to_vec());
+        assert_eq!(linear.order, 1);
+        assert_eq!(linear.row(&point), [1.0, 0.3, -0.7, 0.9]);
+        // A high power alone is still evaluated exactly.
+        let cube = Basis::from_terms(BasisKind::Monomial, 2, vec![vec![0, 0], vec![0, 9]]);
+        assert_eq!(cube.order, 9);
+        assert!((cube.row(&[0.0, 0.5])[1] - 0.5f64.powi(9)).abs() < 1e-15);
     }
 
     #[test]

@@ -4,6 +4,23 @@
 //! composite design with an axial distance `α > 1`, the axial ("star") points sit on the
 //! faces of the box at `±1` and the factorial points shrink to `±1/α` (the *inscribed*
 //! form), so that no run leaves the range the user gave.
+//!
+//! Box-Behnken designs are those of Box & Behnken, "Some new three level designs for the
+//! study of quantitative variables", *Technometrics* 2(4), 455–475 (1960). Each combines
+//! a balanced (or partially balanced) incomplete block design with two-level factorials:
+//! in every block the block's factors take all their `±1` combinations while the others
+//! stay at 0, so every run lies at the midpoint of an edge (or a higher face) of the cube.
+//! For 3 to 5 factors the blocks are every pair of factors (12, 24 and 40 edge runs). For 6
+//! and 7 factors the blocks have three factors each, from the paper's tables as Lenth's R
+//! package `rsm` (function `bbd`) tabulates them, with 48 and 56 edge runs as the
+//! `DoE.wrapper` documentation lists:
+//!
+//! - 6 factors, 6 blocks: (1,2,4) (2,3,5) (3,4,6) (1,4,5) (2,5,6) (1,3,6);
+//! - 7 factors, 7 blocks: (4,5,6) (1,6,7) (2,5,7) (1,2,4) (3,4,7) (1,3,5) (2,3,6), the
+//!   balanced design in which every pair of factors shares exactly one block.
+//!
+//! Larger designs (9 to 12 and 16 factors) use blocks of four or more factors with
+//! fractional factorials and are not implemented.
 
 use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};
@@ -36,7 +53,8 @@ pub enum DesignKind {
         /// Number of runs at the centre, at least 1 for a second-order fit.
         center_points: usize,
     },
-    /// Box-Behnken: every pair of factors at `±1` with the others at 0, plus centre runs.
+    /// Box-Behnken (3 to 7 factors): blocks of two (3 to 5 factors) or three (6 and 7
+    /// factors) factors at all `±1` combinations with the others at 0, plus centre runs.
     BoxBehnken {
         /// Number of runs at the centre.
         center_points: usize,
@@ -71,6 +89,12 @@ pub enum DesignError {
     /// A Latin hypercube needs at least two samples.
     #[error("a Latin hypercube needs at least 2 samples, got {0}")]
     TooFewSamples(usize),
+    /// No published Box-Behnken design is implemented for this many factors.
+    #[error("no Box-Behnken design is implemented for {factors} factors (only for 3 to 7, from Box & Behnken's published tables); use central_composite or latin_hypercube")]
+    BoxBehnkenUnavailable {
+        /// Factors given.
+        factors: usize,
+    },
     /// The design would have more runs than anyone should launch by accident.
     #[error("the design would have {runs} runs, more than the limit of {limit}; expected fewer levels, samples or centre points")]
     TooManyRuns {
@@ -139,7 +163,12 @@ pub fn run_count(kind: &DesignKind, n_factors: usize) -> Result<usize, DesignErr
             .saturating_add(2 * k)
             .saturating_add(center_points as u128),
         DesignKind::BoxBehnken { center_points } => {
-            (2 * k * k.saturating_sub(1)).saturating_add(center_points as u128)
+            let edge_runs = match box_behnken_blocks(n_factors) {
+                Some(blocks) => blocks.len() as u128 * (1u128 << blocks[0].len()),
+                None if n_factors < 3 => 2 * k * k.saturating_sub(1),
+                None => return Err(DesignError::BoxBehnkenUnavailable { factors: n_factors }),
+            };
+            edge_runs.saturating_add(center_points as u128)
         }
         DesignKind::LatinHypercube { samples, .. } => samples as u128,
     };
@@ -234,17 +263,62 @@ fn central_composite(
     Ok(points)
 }
 
+/// Blocks of the six-factor design, factors numbered from 1 as in the published table.
+const BOX_BEHNKEN_6: [[usize; 3]; 6] = [
+    [1, 2, 4],
+    [2, 3, 5],
+    [3, 4, 6],
+    [1, 4, 5],
+    [2, 5, 6],
+    [1, 3, 6],
+];
+
+/// Blocks of the seven-factor design, factors numbered from 1 as in the published table.
+const BOX_BEHNKEN_7: [[usize; 3]; 7] = [
+    [4, 5, 6],
+    [1, 6, 7],
+    [2, 5, 7],
+    [1, 2, 4],
+    [3, 4, 7],
+    [1, 3, 5],
+    [2, 3, 6],
+];
+
+/// The blocks of the Box-Behnken design over `n_factors`, factors numbered from 0; `None`
+/// when none is implemented (fewer than 3 or more than 7 factors).
+fn box_behnken_blocks(n_factors: usize) -> Option<Vec<Vec<usize>>> {
+    let from_table = |table: &[[usize; 3]]| {
+        table
+            .iter()
+            .map(|block| block.iter().map(|f| f - 1).collect())
+            .collect()
+    };
+    match n_factors {
+        3..=5 => Some(
+            (0..n_factors)
+                .flat_map(|i| (i + 1..n_factors).map(move |j| vec![i, j]))
+                .collect(),
+        ),
+        6 => Some(from_table(&BOX_BEHNKEN_6)),
+        7 => Some(from_table(&BOX_BEHNKEN_7)),
+        _ => None,
+    }
+}
+
 fn box_behnken(n_factors: usize, center_points: usize) -> Result<Vec<Vec<f64>>, DesignError> {
     require_factors("Box-Behnken", 3, n_factors)?;
+    let blocks = box_behnken_blocks(n_factors)
+        .ok_or(DesignError::BoxBehnkenUnavailable { factors: n_factors })?;
     let mut points = Vec::new();
-    for i in 0..n_factors {
-        for j in i + 1..n_factors {
-            for (a, b) in [(-1.0, -1.0), (-1.0, 1.0), (1.0, -1.0), (1.0, 1.0)] {
-                let mut point = vec![0.0; n_factors];
-                point[i] = a;
-                point[j] = b;
-                points.push(point);
+    for block in &blocks {
+        // All ±1 combinations of the block's factors, the first factor varying slowest.
+        for combination in 0..1usize << block.len() {
+            let mut point = vec![0.0; n_factors];
+            for (position, &factor) in block.iter().enumerate() {
+                let bit = (combination >> (block.len() - 1 - position)) & 1;
+                point[factor] = if bit == 1 { 1.0 } else { -1.0 };
             }
+            points.push(point);
         }
     }
     points.extend((0..center_points).map(|_| vec![0.0; n_factors]));
@@ -400,6 +474,161 @@ mod tests {
                 given: 2
             })
         );
+    }
+
+    fn bb(k: usize, centre: usize) -> Design {
+        Design::build(
+            &DesignKind::BoxBehnken {
+                center_points: centre,
+            },
+            k,
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn box_behnken_for_three_factors_is_the_published_edge_midpoints_in_order() {
+        // The 12 edge midpoints in three blocks of pairs (x1,x2), (x1,x3), (x2,x3), in the
+        // order MathWorks' documentation of `bbdesign(3)` prints them (unchanged here).
+        let expected = [
+            [-1.0, -1.0, 0.0],
+            [-1.0, 1.0, 0.0],
+            [1.0, -1.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [-1.0, 0.0, -1.0],
+            [-1.0, 0.0, 1.0],
+            [1.0, 0.0, -1.0],
+            [1.0, 0.0, 1.0],
+            [0.0, -1.0, -1.0],
+            [0.0, -1.0, 1.0],
+            [0.0, 1.0, -1.0],
+            [0.0, 1.0, 1.0],
+            [0.0, 0.0, 0.0],
+        ];
+        assert_eq!(bb(3, 1).points, expected.map(|p| p.to_vec()));
+    }
+
+    #[test]
+    fn box_behnken_six_and_seven_factors_have_the_published_run_counts() {
+        // 48 and 56 edge runs (Box & Behnken 1960; DoE.wrapper's bbd.design lists them).
+        for centre in [0, 1, 6] {
+            assert_eq!(bb(6, centre).len(), 48 + centre);
+            assert_eq!(bb(7, centre).len(), 56 + centre);
+        }
+        // Every pair for 5 factors: 10 pairs × 4.
+        assert_eq!(bb(5, 0).len(), 40);
+    }
+
+    #[test]
+    fn box_behnken_edge_runs_have_one_block_of_factors_at_plus_or_minus_one() {
+        for (k, in_block) in [(3, 2), (4, 2), (5, 2), (6, 3), (7, 3)] {
+            let design = bb(k, 2);
+            let edges = &design.points[..design.len() - 2];
+            for point in edges {
+                let nonzero: Vec<f64> = point.iter().copied().filter(|v| *v != 0.0).collect();
+                assert_eq!(nonzero.len(), in_block, "{k} factors: {point:?}");
+                assert!(nonzero.iter().all(|v| v.abs() == 1.0), "{point:?}");
+            }
+            let mut distinct = edges.to_vec();
+            distinct.sort_by(|a, b| a.partial_cmp(b).unwrap());
+            distinct.dedup();
+            assert_eq!(distinct.len(), edges.len(), "{k} factors: a run repeats");
+            assert!(design.points[design.len() - 2..]
+                .iter()
+                .all(|p| p.iter().all(|v| *v == 0.0)));
+        }
+    }
+
+    #[test]
+    fn box_behnken_blocks_are_balanced() {
+        // Each factor lies in the same number of blocks: 3 for both tables. Every pair of
+        // factors shares a block (so every interaction is estimable): exactly once for
+        // seven factors (a balanced incomplete block design); for six, the pairs (1,4),
+        // (2,5), (3,6) share two blocks and the other twelve one.
+        for (k, table) in [(6, &BOX_BEHNKEN_6[..]), (7, &BOX_BEHNKEN_7[..])] {
+            for factor in 1..=k {
+                let blocks = table.iter().filter(|b| b.contains(&factor)).count();
+                assert_eq!(blocks, 3, "{k} factors: factor {factor}");
+            }
+            for i in 1..=k {
+                for j in i + 1..=k {
+                    let shared = table
+                        .iter()
+                        .filter(|b| b.contains(&i) && b.contains(&j))
+                        .count();
+                    let twice = k == 6 && j == i + 3;
+                    assert_eq!(shared, if twice { 2 } else { 1 }, "{k} factors: ({i}, {j})");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn box_behnken_six_and_seven_factors_estimate_a_full_quadratic() {
+        use crate::basis::{Basis, BasisKind};
+        use crate::fit::Fit;
+        for k in [6, 7] {
+            let design = bb(k, 3);
+            let names: Vec<String> = (0..k).map(|i| format!("x{i}")).collect();
+            // An arbitrary non-polynomial response: only the rank matters here.
+            let y: Vec<f64> = design
+                .points
+                .iter()
+                .map(|p| {
+                    p.iter()
+                        .enumerate()
+                        .map(|(i, v)| (v * (i + 1) as f64).sin())
+                        .sum()
+                })
+                .collect();
+            let basis = Basis::complete(BasisKind::Monomial, k, 2);
+            let terms = basis.len();
+            let fit = Fit::new(basis, &names, &design.points, &y)
+                .unwrap_or_else(|e| panic!("{k} factors: {e}"));
+            assert_eq!(fit.coefficients.len(), terms);
+            assert_eq!(fit.quality.terms, (k + 1) * (k + 2) / 2);
+        }
+    }
+
+    #[test]
+    fn box_behnken_beyond_seven_factors_is_refused_with_a_way_out() {
+        for k in [8, 9, 12] {
+            let kind = DesignKind::BoxBehnken { center_points: 3 };
+            let error = DesignError::BoxBehnkenUnavailable { factors: k };
+            assert_eq!(Design::build(&kind, k), Err(error.clone()));
+            assert_eq!(run_count(&kind, k), Err(error.clone()));
+            assert!(error
+                .to_string()
+                .ends_with("use central_composite or latin_hypercube"));
+        }
+    }
+
+    #[test]
+    fn run_count_agrees_with_the_built_design() {
+        for k in 1..=7 {
+            for centre in [0, 1, 4] {
+                let kinds = [
+                    DesignKind::FullFactorial { levels: 3 },
+                    DesignKind::CentralComposite {
+                        alpha: CentralCompositeAlpha::Rotatable,
+                        center_points: centre,
+                    },
+                    DesignKind::BoxBehnken {
+                        center_points: centre,
+                    },
+                    DesignKind::LatinHypercube {
+                        samples: 5 + centre,
+                        seed: 1,
+                        candidates: 2,
+                    },
+                ];
+                for kind in kinds {
+                    if let Ok(design) = Design::build(&kind, k) {
+                        assert_eq!(run_count(&kind, k), Ok(design.len()), "{kind:?}, {k}");
+                    }
+                }
+            }
+        }
     }
 
     #[test]

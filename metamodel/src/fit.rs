@@ -6,10 +6,23 @@
 //! leverages `h_ii = ‖Q_i‖²` (the hat matrix's diagonal), the leave-one-out residuals
 //! `e_i / (1 − h_ii)` without refitting, and the coefficients' standard errors from
 //! `(XᵀX)⁻¹ = R⁻¹R⁻ᵀ`.
+//!
+//! `(XᵀX)⁻¹` is kept in the fit, so that the variance of the fitted surface at a new point
+//! `x₀` (row `x₀` of the model matrix) is `s² x₀ᵀ(XᵀX)⁻¹x₀`. With `t = t_{(1+c)/2, n−p}`,
+//! the two-sided `c` interval is
+//!
+//! - for the mean response at `x₀` (a confidence interval): `ŷ₀ ± t s √(x₀ᵀ(XᵀX)⁻¹x₀)`;
+//! - for one new observation at `x₀` (a prediction interval): `ŷ₀ ± t s √(1 + x₀ᵀ(XᵀX)⁻¹x₀)`,
+//!
+//! as in Montgomery, Peck & Vining, *Introduction to Linear Regression Analysis*, 5th ed.,
+//! Wiley 2012, §3.4–3.5. Both assume independent, normal errors of one variance; a
+//! deterministic simulation has no such errors, and there the intervals measure only how
+//! far the surface misses the runs.
 
 use nalgebra::{DMatrix, DVector};
 
 use crate::basis::Basis;
+use crate::student::student_t_quantile;
 
 /// Why a surface cannot be fitted.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -65,6 +78,27 @@ pub struct Fit {
     pub residuals: Vec<f64>,
     /// Leverages (hat matrix diagonal) of the runs.
     pub leverages: Vec<f64>,
+    /// `(XᵀX)⁻¹`, terms × terms, row-major, in the squared inverse units of the terms: the
+    /// coefficients' covariance divided by the residual variance. Kept for the intervals of
+    /// [`Fit::confidence_interval`] and [`Fit::prediction_interval`]; `None` when runs equal
+    /// terms, as then there is no residual variance to scale it by.
+    pub unscaled_covariance: Option<Vec<f64>>,
+}
+
+/// A two-sided interval around the fitted surface's value at one point.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Interval {
+    /// The surface's value `ŷ₀` at the point, in the response's units.
+    pub estimate: f64,
+    /// Standard error of `ŷ₀` (confidence interval) or of `y₀ − ŷ₀` (prediction
+    /// interval), in the response's units.
+    pub std_error: f64,
+    /// Lower end, `ŷ₀ − t · std_error`.
+    pub low: f64,
+    /// Upper end, `ŷ₀ + t · std_error`.
+    pub high: f64,
+    /// Residual degrees of freedom `n − p` of the t quantile.
+    pub degrees_of_freedom: f64,
 }
 
 /// Measures of a fit on the runs it was fitted to.
@@ -194,13 +228,15 @@ impl Fit {
             .map(|press| 100.0 * (press / n as f64).sqrt() / spread);
         let r2_cross = sigma_cross_percent.map(|s| 1.0 - (s / 100.0).powi(2));
 
-        let (standard_errors, t_values) = match residual_variance {
+        let (standard_errors, t_values, unscaled_covariance) = match residual_variance {
             Some(variance) => {
                 let r_inverse = r
                     .solve_upper_triangular(&DMatrix::identity(p, p))
                     .expect("R is invertible at full rank");
+                // (XᵀX)⁻¹ = R⁻¹R⁻ᵀ; its diagonal is the squared row norms of R⁻¹.
+                let covariance = &r_inverse * r_inverse.transpose();
                 let errors: Vec<f64> = (0..p)
-                    .map(|j| (variance * r_inverse.row(j).norm_squared()).sqrt())
+                    .map(|j| (variance * covariance[(j, j)].max(0.0)).sqrt())
                     .collect();
                 let t = coefficients
                     .iter()
@@ -213,9 +249,13 @@ impl Fit {
                         }
                     })
                     .collect();
-                (Some(errors), Some(t))
+                let row_major = (0..p)
+                    .flat_map(|i| (0..p).map(move |j| (i, j)))
+                    .map(|(i, j)| covariance[(i, j)])
+                    .collect();
+                (Some(errors), Some(t), Some(row_major))
             }
-            None => (None, None),
+            None => (None, None, None),
         };
 
         Ok(Fit {
@@ -236,6 +276,7 @@ impl Fit {
             },
             residuals,
             leverages,
+            unscaled_covariance,
             basis,
         })
     }
@@ -248,6 +289,55 @@ impl Fit {
             .zip(&self.coefficients)
             .map(|(t, b)| t * b)
             .sum()
+    }
+
+    /// The two-sided `confidence` (e.g. 0.95) interval for the *mean* response at coded
+    /// point `x`: `ŷ₀ ± t_{(1+c)/2, n−p} · s · √(x₀ᵀ(XᵀX)⁻¹x₀)`, where `x₀` is the basis
+    /// evaluated at `x`. It says where the true surface lies, if the model's form is
+    /// right. `None` when runs equal terms (no residual variance), when `confidence` is
+    /// not inside (0, 1), or when `x` has the wrong number of factors or a non-finite
+    /// coordinate.
+    pub fn confidence_interval(&self, x: &[f64], confidence: f64) -> Option<Interval> {
+        self.interval(x, confidence, 0.0)
+    }
+
+    /// The two-sided `confidence` (e.g. 0.95) interval for *one new observation* at coded
+    /// point `x`: `ŷ₀ ± t_{(1+c)/2, n−p} · s · √(1 + x₀ᵀ(XᵀX)⁻¹x₀)`. It is wider than
+    /// [`Fit::confidence_interval`] by the new run's own scatter, and is what a single
+    /// further simulation at `x` is expected to land in. `None` in the same cases.
+    pub fn prediction_interval(&self, x: &[f64], confidence: f64) -> Option<Interval> {
+        self.interval(x, confidence, 1.0)
+    }
+
+    /// The interval with `extra` (0 or 1) residual variances added to the estimate's.
+    fn interval(&self, x: &[f64], confidence: f64, extra: f64) -> Option<Interval> {
+        if !(confidence > 0.0 && confidence < 1.0)
+            || x.len() != self.basis.n_factors
+            || x.iter().any(|v| !v.is_finite())
+        {
+            return None;
+        }
+        let covariance = self.unscaled_covariance.as_ref()?;
+        let residual_std = self.quality.residual_std?;
+        let row = self.basis.row(x);
+        let p = row.len();
+        let quadratic: f64 = (0..p)
+            .map(|i| {
+                let inner: f64 = (0..p).map(|j| covariance[i * p + j] * row[j]).sum();
+                row[i] * inner
+            })
+            .sum();
+        let std_error = residual_std * (quadratic.max(0.0) + extra).sqrt();
+        let degrees_of_freedom = (self.quality.runs - self.quality.terms) as f64;
+        let t = student_t_quantile(0.5 + 0.5 * confidence, degrees_of_freedom);
+        let estimate: f64 = row.iter().zip(&self.coefficients).map(|(t, b)| t * b).sum();
+        Some(Interval {
+            estimate,
+            std_error,
+            low: estimate - t * std_error,
+            high: estimate + t * std_error,
+            degrees_of_freedom,
+        })
     }
 
     /// `σ_test_rel` and its `R²` on held-out points (coded `x`, observed `y`); `None`

@@ -10,18 +10,23 @@
 pub mod basis;
 pub mod design;
 pub mod fit;
+pub mod lack_of_fit;
 pub mod optimise;
 pub mod propagate;
 pub mod propose;
+pub mod prune;
 mod scaling;
 pub mod student;
 
 pub use basis::{Basis, BasisKind};
 pub use design::{run_count, CentralCompositeAlpha, Design, DesignError, DesignKind, MAX_RUNS};
-pub use fit::{Fit, FitError, Quality, TestQuality};
+pub use fit::{Fit, FitError, Interval, Quality, TestQuality};
+pub use lack_of_fit::{lack_of_fit, LackOfFit};
 pub use optimise::{optimise, optimise_subject_to, BoxBounds, Constraint, Goal, Optimum};
 pub use propagate::{propagate, Distribution, Spread};
+pub use prune::prune;
 pub use scaling::FactorRange;
 pub use student::{
-    student_t_cdf, student_t_quantile, welch_interval, SampleSummary, WelchInterval,
+    f_cdf, f_quantile, f_survival, student_t_cdf, student_t_quantile, welch_interval,
+    SampleSummary, WelchInterval,
 };

@@ -23,7 +23,7 @@ pub use design::{run_count, CentralCompositeAlpha, Design, DesignError, DesignKi
 pub use fit::{Fit, FitError, Interval, Quality, TestQuality};
 pub use lack_of_fit::{lack_of_fit, LackOfFit};
 pub use optimise::{optimise, optimise_subject_to, BoxBounds, Constraint, Goal, Optimum};
-pub use propagate::{propagate, Distribution, Spread};
+pub use propagate::{propagate, propagate_with_error, Distribution, Spread};
 pub use prune::prune;
 pub use scaling::FactorRange;
 pub use student::{

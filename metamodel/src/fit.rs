@@ -145,6 +145,33 @@ fn sample_std(values: &[f64]) -> f64 {
     (values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt()
 }
 
+/// `σ_test_rel` and its `R²` of any surface `predict` on held-out points (coded `x`,
+/// observed `y`); `None` with fewer than two test points or no spread among them.
+pub fn test_quality(
+    predict: &dyn Fn(&[f64]) -> f64,
+    x: &[Vec<f64>],
+    y: &[f64],
+) -> Option<TestQuality> {
+    if x.len() != y.len() || y.len() < 2 {
+        return None;
+    }
+    let spread = sample_std(y);
+    if spread <= 0.0 {
+        return None;
+    }
+    let mse = x
+        .iter()
+        .zip(y)
+        .map(|(p, v)| (predict(p) - v).powi(2))
+        .sum::<f64>()
+        / y.len() as f64;
+    let sigma = 100.0 * mse.sqrt() / spread;
+    Some(TestQuality {
+        sigma_test_rel_percent: sigma,
+        r2: 1.0 - (sigma / 100.0).powi(2),
+    })
+}
+
 impl Fit {
     /// Fits `basis` to responses `y` at coded points `x`; `factor_names` name terms.
     pub fn new(
@@ -343,24 +370,7 @@ impl Fit {
     /// `σ_test_rel` and its `R²` on held-out points (coded `x`, observed `y`); `None`
     /// with fewer than two test points or no spread among them.
     pub fn test(&self, x: &[Vec<f64>], y: &[f64]) -> Option<TestQuality> {
-        if x.len() != y.len() || y.len() < 2 {
-            return None;
-        }
-        let spread = sample_std(y);
-        if spread <= 0.0 {
-            return None;
-        }
-        let mse = x
-            .iter()
-            .zip(y)
-            .map(|(p, v)| (self.predict(p) - v).powi(2))
-            .sum::<f64>()
-            / y.len() as f64;
-        let sigma = 100.0 * mse.sqrt() / spread;
-        Some(TestQuality {
-            sigma_test_rel_percent: sigma,
-            r2: 1.0 - (sigma / 100.0).powi(2),
-        })
+        test_quality(&|p| self.predict(p), x, y)
     }
 
     /// Terms other than the constant, ordered by |t| (largest first): the Pareto

@@ -14,6 +14,7 @@ pub mod optimise;
 pub mod propagate;
 pub mod propose;
 mod scaling;
+pub mod sobol;
 pub mod student;
 
 pub use basis::{Basis, BasisKind};
@@ -22,6 +23,7 @@ pub use fit::{Fit, FitError, Quality, TestQuality};
 pub use optimise::{optimise, optimise_subject_to, BoxBounds, Constraint, Goal, Optimum};
 pub use propagate::{propagate, Distribution, Spread};
 pub use scaling::FactorRange;
+pub use sobol::{legendre_sobol, sobol_indices, Estimate, SobolError, SobolIndices};
 pub use student::{
     student_t_cdf, student_t_quantile, welch_interval, SampleSummary, WelchInterval,
 };

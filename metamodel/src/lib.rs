@@ -16,6 +16,7 @@ pub mod propagate;
 pub mod propose;
 pub mod prune;
 mod scaling;
+pub mod sobol;
 pub mod student;
 
 pub use basis::{Basis, BasisKind};
@@ -26,6 +27,7 @@ pub use optimise::{optimise, optimise_subject_to, BoxBounds, Constraint, Goal, O
 pub use propagate::{propagate, propagate_with_error, Distribution, Spread};
 pub use prune::prune;
 pub use scaling::FactorRange;
+pub use sobol::{legendre_sobol, sobol_indices, Estimate, SobolError, SobolIndices};
 pub use student::{
     f_cdf, f_quantile, f_survival, student_t_cdf, student_t_quantile, welch_interval,
     SampleSummary, WelchInterval,

@@ -64,14 +64,16 @@ pub struct DistributionError {
     pub message: String,
 }
 
-enum Sampler {
+/// A validated [`Distribution`] ready to draw from; shared with [`crate::sobol`].
+pub(crate) enum Sampler {
     Normal(Normal<f64>),
     Uniform(Uniform<f64>),
     LogNormal(LogNormal<f64>),
 }
 
 impl Sampler {
-    fn new(index: usize, d: Distribution) -> Result<Sampler, DistributionError> {
+    /// Checks `d` (input number `index`, for the error) and builds its sampler.
+    pub(crate) fn new(index: usize, d: Distribution) -> Result<Sampler, DistributionError> {
         let error = |message: String| DistributionError { index, message };
         let positive = |name: &str, v: f64| {
             if v.is_finite() && v > 0.0 {
@@ -102,7 +104,8 @@ impl Sampler {
         })
     }
 
-    fn sample(&self, rng: &mut ChaCha8Rng) -> f64 {
+    /// One draw.
+    pub(crate) fn sample(&self, rng: &mut ChaCha8Rng) -> f64 {
         match self {
             Sampler::Normal(d) => d.sample(rng),
             Sampler::Uniform(d) => d.sample(rng),

@@ -10,6 +10,8 @@
 pub mod basis;
 pub mod design;
 pub mod fit;
+pub mod improvement;
+pub mod kriging;
 pub mod optimise;
 pub mod propagate;
 pub mod propose;
@@ -19,6 +21,10 @@ pub mod student;
 pub use basis::{Basis, BasisKind};
 pub use design::{run_count, CentralCompositeAlpha, Design, DesignError, DesignKind, MAX_RUNS};
 pub use fit::{Fit, FitError, Quality, TestQuality};
+pub use improvement::{erf, erfc, expected_improvement, normal_cdf, normal_pdf, propose_batch};
+pub use kriging::{
+    pure_error_variance, Kernel, Kriging, KrigingError, KrigingOptions, Nugget, Trend,
+};
 pub use optimise::{optimise, optimise_subject_to, BoxBounds, Constraint, Goal, Optimum};
 pub use propagate::{propagate, Distribution, Spread};
 pub use scaling::FactorRange;

@@ -10,6 +10,8 @@
 pub mod basis;
 pub mod design;
 pub mod fit;
+pub mod improvement;
+pub mod kriging;
 pub mod lack_of_fit;
 pub mod optimise;
 pub mod propagate;
@@ -21,7 +23,11 @@ pub mod student;
 
 pub use basis::{Basis, BasisKind};
 pub use design::{run_count, CentralCompositeAlpha, Design, DesignError, DesignKind, MAX_RUNS};
-pub use fit::{Fit, FitError, Interval, Quality, TestQuality};
+pub use fit::{test_quality, Fit, FitError, Interval, Quality, TestQuality};
+pub use improvement::{erf, erfc, expected_improvement, normal_cdf, normal_pdf, propose_batch};
+pub use kriging::{
+    pure_error_variance, Kernel, Kriging, KrigingError, KrigingOptions, Nugget, Trend,
+};
 pub use lack_of_fit::{lack_of_fit, LackOfFit};
 pub use optimise::{optimise, optimise_subject_to, BoxBounds, Constraint, Goal, Optimum};
 pub use propagate::{propagate, propagate_with_error, Distribution, Spread};

@@ -1,0 +1,265 @@
+//! Expected improvement and kriging-believer batches for sequential design.
+//!
+//! The expected improvement of a Gaussian prediction `N(μ, s²)` over the best value
+//! observed so far `y*` is, for minimisation with `I = y* − μ` and `z = I/s`,
+//! `EI = I Φ(z) + s φ(z)` (Jones, Schonlau & Welch 1998, eq. 15), and `max(I, 0)` when
+//! `s = 0`. Maximisation swaps the sign of `I`.
+//!
+//! A batch of `q` points is proposed with the *kriging believer* heuristic (Ginsbourger,
+//! Le Riche & Carraro 2010, §4.1): maximise EI, pretend the model's mean there was
+//! observed, refit with the same hyperparameters, and repeat `q` times. EI is maximised
+//! over the box by evaluating a dense seeded random candidate set, then polishing the
+//! best candidates with a bounded Nelder–Mead.
+//!
+//! `Φ` uses `erfc`, computed from its power series (Abramowitz & Stegun 7.1.6) below
+//! 2.5 and its continued fraction (A&S 7.1.14, modified Lentz) above, to about 10⁻¹⁵
+//! relative.
+//!
+//! References: D. R. Jones, M. Schonlau and W. J. Welch, "Efficient global optimization
+//! of expensive black-box functions", *J. Global Optimization* 13 (1998) 455–492.
+//! D. Ginsbourger, R. Le Riche and L. Carraro, "Kriging is well-suited to parallelize
+//! optimization", in *Computational Intelligence in Expensive Optimization Problems*,
+//! Springer, 2010, 131–162. M. Abramowitz and I. A. Stegun, *Handbook of Mathematical
+//! Functions*, 1964, ch. 7.
+
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+use crate::kriging::{nelder_mead, Kriging, KrigingOptions};
+use crate::optimise::{BoxBounds, Goal};
+
+/// `1/√π`.
+const FRAC_1_SQRT_PI: f64 = 0.564_189_583_547_756_3;
+
+/// Complementary error function `erfc(x) = 1 − erf(x)`, accurate to about 10⁻¹⁵
+/// relative, also in the far tail.
+pub fn erfc(x: f64) -> f64 {
+    if x.is_nan() {
+        return f64::NAN;
+    }
+    if x < 0.0 {
+        return 2.0 - erfc(-x);
+    }
+    if x < 2.5 {
+        return 1.0 - erf_series(x);
+    }
+    if x > 27.0 {
+        return 0.0;
+    }
+    // erfc x = e^{−x²}/√π · 1/(x + (1/2)/(x + 1/(x + (3/2)/(x + …)))).
+    let tiny = 1e-300;
+    let mut f = x;
+    let mut c = f;
+    let mut d = 0.0;
+    for m in 1..500 {
+        let a = 0.5 * m as f64;
+        d = x + a * d;
+        if d.abs() < tiny {
+            d = tiny;
+        }
+        d = 1.0 / d;
+        c = x + a / c;
+        if c.abs() < tiny {
+            c = tiny;
+        }
+        let delta = c * d;
+        f *= delta;
+        if (delta - 1.0).abs() < 1e-16 {
+            break;
+        }
+    }
+    (-x * x).exp() * FRAC_1_SQRT_PI / f
+}
+
+/// Error function `erf(x)`.
+pub fn erf(x: f64) -> f64 {
+    if x.abs() < 2.5 {
+        erf_series(x)
+    } else {
+        x.signum() * (1.0 - erfc(x.abs()))
+    }
+}
+
+/// `erf x = 2/√π e^{−x²} Σ 2ⁿ x^{2n+1} / (1·3···(2n+1))`: every term positive.
+fn erf_series(x: f64) -> f64 {
+    let two_x2 = 2.0 * x * x;
+    let mut term = x;
+    let mut sum = x;
+    for n in 1..200 {
+        term *= two_x2 / (2 * n + 1) as f64;
+        sum += term;
+        if term.abs() <= 1e-17 * sum.abs() {
+            break;
+        }
+    }
+    2.0 * FRAC_1_SQRT_PI * (-x * x).exp() * sum
+}
+
+/// Standard normal density `φ(z)`.
+pub fn normal_pdf(z: f64) -> f64 {
+    FRAC_1_SQRT_PI / std::f64::consts::SQRT_2 * (-0.5 * z * z).exp()
+}
+
+/// Standard normal distribution function `Φ(z)`, accurate in both tails.
+pub fn normal_cdf(z: f64) -> f64 {
+    0.5 * erfc(-z / std::f64::consts::SQRT_2)
+}
+
+/// Expected improvement over `best` of a prediction with mean `mean` and standard
+/// deviation `std` (response units), for `goal`; `max(improvement, 0)` when `std` is 0.
+pub fn expected_improvement(mean: f64, std: f64, best: f64, goal: Goal) -> f64 {
+    let improvement = match goal {
+        Goal::Minimise => best - mean,
+        Goal::Maximise => mean - best,
+    };
+    if !(std > 0.0) || !std.is_finite() {
+        return improvement.max(0.0);
+    }
+    let z = improvement / std;
+    (improvement * normal_cdf(z) + std * normal_pdf(z)).max(0.0)
+}
+
+/// Proposes `batch` coded points in `bounds` by the kriging believer: each maximises
+/// the expected improvement of a model with `model`'s hyperparameters fitted to `x`,
+/// `y` and the points proposed before it (each believed to have the model's mean).
+/// `seed` seeds the candidate points; `options.starts` is how many of the best
+/// candidates are polished by a local search. Fewer than `batch` points are returned
+/// only when a believed point makes the model ill-conditioned beyond repair.
+#[allow(clippy::too_many_arguments)]
+pub fn propose_batch(
+    model: &Kriging,
+    x: &[Vec<f64>],
+    y: &[f64],
+    bounds: &BoxBounds,
+    batch: usize,
+    goal: Goal,
+    seed: u64,
+    options: &KrigingOptions,
+) -> Vec<Vec<f64>> {
+    let k = bounds.lower.len();
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut xs = x.to_vec();
+    let mut ys = y.to_vec();
+    let mut current = model.clone();
+    let mut proposed = Vec::with_capacity(batch);
+    let n_candidates = 1000 + 500 * k;
+    for round in 0..batch {
+        let best = match goal {
+            Goal::Minimise => ys.iter().copied().fold(f64::INFINITY, f64::min),
+            Goal::Maximise => ys.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+        };
+        let negative_ei = |p: &[f64]| {
+            let std = current.predict_variance(p).sqrt();
+            -expected_improvement(current.predict(p), std, best, goal)
+        };
+        let mut candidates: Vec<(Vec<f64>, f64)> = (0..n_candidates)
+            .map(|_| {
+                let p: Vec<f64> = (0..k)
+                    .map(|j| rng.random_range(bounds.lower[j]..=bounds.upper[j]))
+                    .collect();
+                let v = negative_ei(&p);
+                (p, v)
+            })
+            .collect();
+        candidates.sort_by(|a, b| a.1.total_cmp(&b.1));
+        let step: Vec<f64> = (0..k)
+            .map(|j| 0.05 * (bounds.upper[j] - bounds.lower[j]))
+            .collect();
+        let point = candidates
+            .iter()
+            .take(options.starts.max(1))
+            .map(|(p, _)| {
+                nelder_mead(
+                    &negative_ei,
+                    p,
+                    &step,
+                    &bounds.lower,
+                    &bounds.upper,
+                    100 * (k + 1),
+                    1e-10,
+                )
+            })
+            .chain(std::iter::once(candidates[0].clone()))
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .map(|(p, _)| p)
+            .expect("at least one candidate");
+        let believed = current.predict(&point);
+        proposed.push(point.clone());
+        if round + 1 == batch {
+            break;
+        }
+        xs.push(point);
+        ys.push(believed);
+        match current.refit(&xs, &ys) {
+            Ok(refitted) => current = refitted,
+            Err(_) => break,
+        }
+    }
+    proposed
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn erf_and_erfc_match_published_values() {
+        // Abramowitz & Stegun table 7.1 and the tail values of erfc (to 16 digits).
+        let cases = [
+            (0.5, 0.520_499_877_813_046_5, erf as fn(f64) -> f64),
+            (1.0, 0.842_700_792_949_714_9, erf),
+            (2.0, 0.995_322_265_018_952_7, erf),
+            (3.0, 2.209_049_699_858_544e-5, erfc),
+            (5.0, 1.537_459_794_428_035e-12, erfc),
+            (10.0, 2.088_487_583_762_545e-45, erfc),
+        ];
+        for (x, want, f) in cases {
+            let got = f(x);
+            assert!(
+                ((got - want) / want).abs() < 1e-13,
+                "x = {x}: {got} vs {want}"
+            );
+        }
+        assert!((normal_cdf(1.959_963_984_540_054) - 0.975).abs() < 1e-15);
+        assert!((normal_cdf(-1.959_963_984_540_054) - 0.025).abs() < 1e-15);
+        assert_eq!(erf(0.0), 0.0);
+        assert!((erf(-1.0) + erf(1.0)).abs() < 1e-16);
+    }
+
+    #[test]
+    fn expected_improvement_without_uncertainty_is_the_plain_improvement() {
+        assert_eq!(expected_improvement(1.0, 0.0, 3.0, Goal::Minimise), 2.0);
+        assert_eq!(expected_improvement(4.0, 0.0, 3.0, Goal::Minimise), 0.0);
+        assert_eq!(expected_improvement(4.0, 0.0, 3.0, Goal::Maximise), 1.0);
+        assert_eq!(expected_improvement(1.0, 0.0, 3.0, Goal::Maximise), 0.0);
+        // At the best value itself, EI = s φ(0) = s / √(2π).
+        let s = 0.7;
+        let ei = expected_improvement(3.0, s, 3.0, Goal::Minimise);
+        assert!((ei - s / (2.0 * std::f64::consts::PI).sqrt()).abs() < 1e-15);
+    }
+
+    #[test]
+    fn expected_improvement_equals_its_defining_integral() {
+        // EI = ∫ max(best − y, 0) φ((y − μ)/s)/s dy, by composite Simpson from μ − 12 s
+        // to `best` (where the integrand's kink is, so every panel is smooth).
+        let (mean, std, best) = (1.3, 0.45, 1.0);
+        let intervals = 20_000;
+        let (a, b) = (mean - 12.0 * std, best);
+        let h = (b - a) / intervals as f64;
+        let integrand = |y: f64| (best - y).max(0.0) * normal_pdf((y - mean) / std) / std;
+        let mut sum = integrand(a) + integrand(b);
+        for i in 1..intervals {
+            let weight = if i % 2 == 1 { 4.0 } else { 2.0 };
+            sum += weight * integrand(a + i as f64 * h);
+        }
+        let integral = sum * h / 3.0;
+        let closed = expected_improvement(mean, std, best, Goal::Minimise);
+        assert!(
+            ((closed - integral) / integral).abs() < 1e-7,
+            "{closed} vs {integral}"
+        );
+        // Maximising the mirror image gives the same number.
+        let mirrored = expected_improvement(-mean, std, -best, Goal::Maximise);
+        assert!((mirrored - closed).abs() < 1e-15);
+    }
+}

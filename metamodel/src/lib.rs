@@ -14,6 +14,7 @@ pub mod improvement;
 pub mod kriging;
 pub mod lack_of_fit;
 pub mod optimise;
+pub mod pareto;
 pub mod propagate;
 pub mod propose;
 pub mod prune;
@@ -30,6 +31,7 @@ pub use kriging::{
 };
 pub use lack_of_fit::{lack_of_fit, LackOfFit};
 pub use optimise::{optimise, optimise_subject_to, BoxBounds, Constraint, Goal, Optimum};
+pub use pareto::{non_dominated, pareto_front, Objective, ParetoPoint};
 pub use propagate::{propagate, propagate_with_error, Distribution, Spread};
 pub use prune::prune;
 pub use scaling::FactorRange;

@@ -21,6 +21,7 @@ pub mod prune;
 mod scaling;
 pub mod sobol;
 pub mod student;
+pub mod surrogate;
 
 pub use basis::{Basis, BasisKind};
 pub use design::{run_count, CentralCompositeAlpha, Design, DesignError, DesignKind, MAX_RUNS};

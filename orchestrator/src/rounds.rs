@@ -11,12 +11,15 @@ use std::path::Path;
 
 use orch_metamodel::optimise::BoxBounds;
 use orch_metamodel::propose::{converged, shrink_around};
+use orch_metamodel::surrogate::{choose, Choice, Surrogate};
 use orch_metamodel::{
-    optimise_subject_to, propagate, Basis, BasisKind, Constraint, Design, Distribution,
-    FactorRange, Fit, Goal,
+    lack_of_fit, optimise_subject_to, propagate, propagate_with_error, BasisKind, Constraint,
+    Design, Distribution, FactorRange, Goal,
 };
 
-use crate::store::{Decision, FitRecord, JobState, RoundRecord, Store, StoreError};
+use crate::store::{
+    CandidateScore, Decision, FitRecord, JobState, LackOfFitRow, RoundRecord, Store, StoreError,
+};
 use crate::study::{DesignPoint, Objective, Study};
 use crate::surfaces;
 
@@ -152,30 +155,13 @@ async fn analyse(
     };
     let responses = fitted_responses(study);
     let data = observed(store, study_id, round, &responses).await?;
+    let options = study.metamodel.kriging_options(study.seed);
     let mut fits = Vec::new();
     for response in &responses {
         let observed = &data[response];
-        let basis = Basis::complete(study.metamodel.basis, k, study.metamodel.order);
-        let result = Fit::new(basis, &names, &observed.design.0, &observed.design.1)
-            .map_err(|e| e.to_string());
-        let test = result
-            .as_ref()
-            .ok()
-            .and_then(|fit| fit.test(&observed.test.0, &observed.test.1))
-            .map(|quality| (observed.test.1.len(), quality));
-        fits.push(FitRecord {
-            response: response.clone(),
-            basis: basis_name.into(),
-            order: study.metamodel.order,
-            runs: observed.design.1.len(),
-            result,
-            test,
-            model: None,
-            spec: None,
-            candidates: Vec::new(),
-            lack_of_fit: None,
-            sensitivities: Vec::new(),
-        });
+        let (x, y) = (&observed.design.0, &observed.design.1);
+        let choice = choose(study.metamodel.model, study.metamodel.basis, &names, x, y, &options);
+        fits.push(fit_record(response, basis_name, observed, choice, study.seed));
     }
 
     let mut record = RoundRecord {
@@ -193,7 +179,7 @@ async fn analyse(
         record.note = "the study has no objective".into();
         return Ok(record);
     };
-    let surfaces: HashMap<String, Fit> = record
+    let surfaces: HashMap<String, Surrogate> = record
         .fits
         .iter()
         .filter_map(|f| {
@@ -224,6 +210,27 @@ async fn analyse(
             .iter()
             .map(|(r, w)| w * surfaces[r].predict(x))
             .sum::<f64>()
+    };
+    // The objective's standard error as an estimate of the mean response, and its 95 %
+    // prediction interval for a new run: the weighted sum of independent surrogates.
+    let combine = |each: &dyn Fn(&Surrogate) -> Option<f64>| {
+        objective
+            .terms
+            .iter()
+            .map(|(r, w)| each(&surfaces[r]).map(|s| (w * s).powi(2)))
+            .sum::<Option<f64>>()
+            .map(f64::sqrt)
+    };
+    let mean_std = |x: &[f64]| combine(&|s| s.mean_std(x));
+    let prediction_interval = |x: &[f64]| -> Option<(f64, f64)> {
+        if let [(response, weight)] = objective.terms.as_slice() {
+            let i = surfaces[response].prediction_interval(x, 0.95)?;
+            let (a, b) = (weight * i.low, weight * i.high);
+            return Some((a.min(b), a.max(b)));
+        }
+        let std = combine(&|s| s.prediction_interval(x, 0.95).map(|i| i.std_error))?;
+        let z = 1.959_963_984_540_054;
+        Some((value(x) - z * std, value(x) + z * std))
     };
 
     // Uncertain factors are held at their mean while the design factors are optimised.
@@ -259,9 +266,10 @@ async fn analyse(
             max: *max,
         })
         .collect();
+    let exact = objective.responses().iter().all(|r| surfaces[r].is_quadratic());
     let (optimum, feasible) = optimise_subject_to(
         &value,
-        study.metamodel.order <= 2,
+        exact,
         &constraints,
         objective.goal,
         &bounds,
@@ -287,7 +295,17 @@ async fn analyse(
         if let Ok(spread) = propagate(&at_optimum, &inputs, u.samples, u.seed) {
             record.uncertainty = Some((objective_name.clone(), spread, u.seed));
         }
+        // The same draws with the surrogates' own error sampled at each point.
+        let with_error = |sample: &[f64]| {
+            let mut x = optimum.x.clone();
+            for ((index, _), v) in u.parameters.iter().zip(sample) {
+                x[*index] = ranges[*index].to_coded(*v);
+            }
+            (value(&x), mean_std(&x).unwrap_or(0.0))
+        };
+        record.uncertainty_total = propagate_with_error(&with_error, &inputs, u.samples, u.seed).ok();
     }
+    record.optimum_interval = prediction_interval(&optimum.x);
     let goal = match objective.goal {
         Goal::Minimise => "minimise",
         Goal::Maximise => "maximise",
@@ -339,7 +357,9 @@ async fn analyse(
             study.rounds
         );
     } else if let Some((_, _, before, _)) =
-        previous.filter(|p| converged(p.2, optimum.value, study.metamodel.tolerance))
+        previous
+            .as_ref()
+            .filter(|p| converged(p.2, optimum.value, study.metamodel.tolerance))
     {
         record.decision = Decision::Converged;
         record.note = format!(
@@ -347,6 +367,12 @@ async fn analyse(
             optimum.value,
             study.metamodel.tolerance * 100.0
         );
+    } else if let Some(note) = previous
+        .as_ref()
+        .and_then(|(_, _, _, before)| unresolved_gain(before, &ranges, &optimum, objective.goal, &value, &mean_std))
+    {
+        record.decision = Decision::Converged;
+        record.note = format!("{note}{constrained}");
     } else {
         // Design factors zoom in around the optimum; uncertain ones keep their range.
         let mut next_ranges = shrink_around(&natural, &ranges, &limits, study.metamodel.shrink);
@@ -373,6 +399,100 @@ async fn analyse(
         record.next = Some((next_ranges, next_points, next_tests));
     }
     Ok(record)
+}
+
+/// What the store keeps of one response's model choice on a round's runs.
+fn fit_record(
+    response: &str,
+    basis_name: &str,
+    observed: &Observed,
+    choice: Result<Choice, String>,
+    seed: u64,
+) -> FitRecord {
+    let (x, y) = (&observed.design.0, &observed.design.1);
+    let mut record = FitRecord {
+        response: response.to_string(),
+        basis: basis_name.to_string(),
+        order: 0,
+        runs: y.len(),
+        result: Err(String::new()),
+        test: None,
+        model: None,
+        spec: None,
+        candidates: Vec::new(),
+        lack_of_fit: None,
+        sensitivities: Vec::new(),
+    };
+    let choice = match choice {
+        Ok(choice) => choice,
+        Err(why) => {
+            record.result = Err(why);
+            return record;
+        }
+    };
+    let surrogate = choice.surrogate;
+    record.candidates = choice
+        .candidates
+        .iter()
+        .enumerate()
+        .map(|(i, c)| CandidateScore {
+            model: c.name.clone(),
+            parameters: c.parameters,
+            loo_rmse: c.loo_rmse,
+            chosen: i == choice.chosen,
+            note: match (&c.note, i == choice.chosen && !choice.by_prognosis) {
+                (_, true) => Some("kept without a score: no candidate could be cross-validated".into()),
+                (note, false) => note.clone(),
+            },
+        })
+        .collect();
+    record.model = Some(choice.candidates[choice.chosen].name.clone());
+    record.spec = Some(surfaces::spec_json(&surrogate.spec()));
+    record.order = surrogate.polynomial().map_or(0, |fit| fit.basis.order);
+    record.lack_of_fit = surrogate
+        .polynomial()
+        .and_then(|fit| lack_of_fit(fit, x, y))
+        .map(|l| LackOfFitRow {
+            f: l.f,
+            p: l.p_value,
+            lack_of_fit_dof: l.dof_lack_of_fit,
+            pure_error_dof: l.dof_pure_error,
+        });
+    record.sensitivities = surfaces::sensitivities(&surrogate, seed);
+    record.test = surrogate
+        .test(&observed.test.0, &observed.test.1)
+        .map(|quality| (observed.test.1.len(), quality));
+    record.result = Ok(surrogate);
+    record
+}
+
+/// The stopping rule's second half: when this round's surrogate predicts the new
+/// optimum better than the previous round's (`before`, natural units) by less than the
+/// half-width of its own 95 % confidence interval there, another round would chase
+/// the surrogate's noise; says so, or `None` to go on.
+fn unresolved_gain(
+    before: &[f64],
+    ranges: &[FactorRange],
+    optimum: &orch_metamodel::Optimum,
+    goal: Goal,
+    value: &dyn Fn(&[f64]) -> f64,
+    mean_std: &dyn Fn(&[f64]) -> Option<f64>,
+) -> Option<String> {
+    let previous: Vec<f64> = before
+        .iter()
+        .zip(ranges)
+        .map(|(v, r)| r.to_coded(*v).clamp(-1.0, 1.0))
+        .collect();
+    let gain = match goal {
+        Goal::Maximise => optimum.value - value(&previous),
+        Goal::Minimise => value(&previous) - optimum.value,
+    };
+    let half_width = 1.959_963_984_540_054 * mean_std(&optimum.x)?;
+    (gain < half_width).then(|| {
+        format!(
+            "the surface predicts the new optimum better than the previous round's by {gain:.6}, within its own 95 % interval (±{half_width:.6}); another round would chase noise"
+        )
+    })
 }
 
 fn mean_of(distribution: &Distribution) -> f64 {

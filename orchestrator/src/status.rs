@@ -280,14 +280,35 @@ fn round_json(round: &StoredRound, names: &[&str]) -> Value {
             "sigma_test_percent": f.sigma_test,
             "r2_test": f.r2_test,
             "error": f.error,
+            "model": f.model,
+            "candidates": f.candidates.iter().map(|c| json!({
+                "model": c.model, "parameters": c.parameters, "loo_rmse": c.loo_rmse,
+                "chosen": c.chosen, "note": c.note,
+            })).collect::<Vec<_>>(),
+            "lack_of_fit": f.lack_of_fit.map(|l| json!({
+                "f": l.f, "p": l.p, "lack_of_fit_dof": l.lack_of_fit_dof, "pure_error_dof": l.pure_error_dof,
+            })),
+            "sobol": f.sensitivities.iter().map(|s| (
+                names.get(s.factor).map_or_else(|| s.factor.to_string(), |n| n.to_string()),
+                json!({
+                    "method": s.method,
+                    "first": s.first.0, "first_95": [s.first.1, s.first.2],
+                    "total": s.total.0, "total_95": [s.total.1, s.total.2],
+                }),
+            )).collect::<BTreeMap<_, _>>(),
             "terms": f.terms.iter().map(|(name, b, se, t)| json!({"name": name, "coefficient": b, "std_error": se, "t": t})).collect::<Vec<_>>(),
         })).collect::<Vec<_>>(),
         "optimum": round.optimum.as_ref().map(|(response, goal, value, natural)| json!({
             "response": response, "goal": goal, "value": value, "factors": by_factor(natural),
+            "prediction_interval_95": round.optimum_interval.map(|(low, high)| [low, high]),
         })),
         "uncertainty": round.uncertainty.map(|u| json!({
             "samples": u.samples, "mean": u.mean, "std": u.std,
             "interval_95": [u.q025, u.q975], "lower_bound_95": u.q05, "upper_bound_95": u.q95,
+            "with_surrogate_error": round.uncertainty_total.map(|t| json!({
+                "mean": t.mean, "std": t.std,
+                "interval_95": [t.q025, t.q975], "lower_bound_95": t.q05, "upper_bound_95": t.q95,
+            })),
         })),
         "decision": round.decision.as_ref().map(|(d, note)| json!({"decision": d.as_str(), "note": note})),
     })
@@ -297,7 +318,8 @@ fn round_json(round: &StoredRound, names: &[&str]) -> Value {
 /// predict, σ_cross missing (and why), or predicts.
 pub fn verdict_of(fit: &StoredFit, factors: &[String], runs: &[Run]) -> Verdict {
     let observed = surfaces::observed(runs, &fit.response);
-    let leverages = surfaces::refit(fit, factors, &observed).map(|f| f.leverages);
+    let leverages = surfaces::refit(fit, factors, &observed)
+        .and_then(|s| s.polynomial().map(|f| f.leverages.clone()));
     verdict::judge(fit, &observed.y, leverages.as_deref())
 }
 
@@ -402,7 +424,7 @@ pub fn rounds_summary(
                     fit.response
                 )),
                 _ => out.push_str(&format!(
-                    "  {}: σ_cross {} %, R² {}, R²(σ_cross) {} ({} runs, {} order {}){}\n",
+                    "  {}: σ_cross {} %, R² {}, R²(σ_cross) {} ({} runs, {}){}\n",
                     fit.response,
                     fit.sigma_cross
                         .map(|v| format!("{v:.1}"))
@@ -414,8 +436,7 @@ pub fn rounds_summary(
                         .map(|v| format!("{v:.4}"))
                         .unwrap_or_else(|| "–".into()),
                     fit.runs,
-                    fit.basis,
-                    fit.order,
+                    model_name(fit),
                     if matches!(verdict, Verdict::DoesNotPredict { .. }) {
                         ": does not predict"
                     } else {
@@ -455,6 +476,11 @@ pub fn rounds_summary(
                 },
                 at.join(", ")
             ));
+            if let Some((low, high)) = round.optimum_interval {
+                out.push_str(&format!(
+                    "    a new run there: 95 % prediction interval [{low:.6}, {high:.6}] (surrogate error and run-to-run noise)\n"
+                ));
+            }
             for warning in warnings {
                 out.push_str(&format!("    warning: {warning}\n"));
             }
@@ -464,6 +490,12 @@ pub fn rounds_summary(
                 "  uncertainty at the optimum ({} samples): mean {:.6}, std {:.6}, 95 % interval [{:.6}, {:.6}], one-sided 95 % bounds {:.6} / {:.6}\n",
                 u.samples, u.mean, u.std, u.q025, u.q975, u.q05, u.q95
             ));
+            if let Some(t) = &round.uncertainty_total {
+                out.push_str(&format!(
+                    "    with the surrogate's own error: mean {:.6}, std {:.6}, 95 % interval [{:.6}, {:.6}], one-sided 95 % bounds {:.6} / {:.6}\n",
+                    t.mean, t.std, t.q025, t.q975, t.q05, t.q95
+                ));
+            }
         }
         if let Some((decision, note)) = &round.decision {
             out.push_str(&format!("  decision: {decision}: {note}\n"));
@@ -472,14 +504,25 @@ pub fn rounds_summary(
     out
 }
 
+/// The surrogate's name, or (fits stored before the model choice) its basis and order.
+fn model_name(fit: &StoredFit) -> String {
+    fit.model
+        .clone()
+        .unwrap_or_else(|| format!("polynomial of order {}", fit.order))
+}
+
 /// `orch fit`: every surface of one round, term by term, with the verdict on each
 /// (`factors` name the terms; `runs` are the round's design runs).
 pub fn fits_report(round: &StoredRound, factors: &[String], runs: &[Run]) -> String {
     let mut out = String::new();
     for fit in &round.fits {
         out.push_str(&format!(
-            "round {}, {} ({} basis, order {}, {} runs)\n",
-            round.round, fit.response, fit.basis, fit.order, fit.runs
+            "round {}, {} ({}, {} basis, {} runs)\n",
+            round.round,
+            fit.response,
+            model_name(fit),
+            fit.basis,
+            fit.runs
         ));
         if let Some(error) = &fit.error {
             out.push_str(&format!("  no surface: {error}\n\n"));
@@ -537,12 +580,94 @@ pub fn fits_report(round: &StoredRound, factors: &[String], runs: &[Run]) -> Str
                 rank,
             ]);
         }
-        for line in table(&rows).lines() {
-            out.push_str("  ");
-            out.push_str(line);
-            out.push('\n');
+        if fit.terms.is_empty() {
+            out.push_str(&kriging_lines(fit, factors));
+        } else {
+            for line in table(&rows).lines() {
+                out.push_str("  ");
+                out.push_str(line);
+                out.push('\n');
+            }
         }
+        out.push_str(&choice_lines(fit, factors));
         out.push('\n');
+    }
+    out
+}
+
+/// A Kriging surface's hyperparameters, from its stored spec.
+fn kriging_lines(fit: &StoredFit, factors: &[String]) -> String {
+    let Some(orch_metamodel::surrogate::ModelSpec::Kriging {
+        length_scales,
+        process_variance,
+        noise_variance,
+        ..
+    }) = fit.spec.as_deref().and_then(surfaces::spec_from_json)
+    else {
+        return String::new();
+    };
+    let scales: Vec<String> = factors
+        .iter()
+        .zip(&length_scales)
+        .map(|(name, l)| format!("{name} {l:.3}"))
+        .collect();
+    format!(
+        "  length scales (coded units; small = the response changes fast along it): {}\n  process std {:.4e}, noise std {:.4e}\n",
+        scales.join(", "),
+        process_variance.sqrt(),
+        noise_variance.sqrt()
+    )
+}
+
+/// The candidates of the model choice, the lack-of-fit test and the Sobol indices.
+fn choice_lines(fit: &StoredFit, factors: &[String]) -> String {
+    let mut out = String::new();
+    if fit.candidates.len() > 1 {
+        out.push_str("  model choice (smallest leave-one-out RMSE; a simpler one within 5 % preferred):\n");
+        for c in &fit.candidates {
+            out.push_str(&format!(
+                "    {} {:<40} {:>3} parameters, leave-one-out RMSE {}{}\n",
+                if c.chosen { "*" } else { " " },
+                c.model,
+                c.parameters,
+                c.loo_rmse
+                    .map(|v| format!("{v:.4e}"))
+                    .unwrap_or_else(|| "–".into()),
+                c.note
+                    .as_ref()
+                    .map(|n| format!(" ({n})"))
+                    .unwrap_or_default()
+            ));
+        }
+    }
+    if let Some(l) = fit.lack_of_fit {
+        out.push_str(&format!(
+            "  lack of fit against replicates: F = {:.3} ({}, {} dof), p = {:.4}{}\n",
+            l.f,
+            l.lack_of_fit_dof,
+            l.pure_error_dof,
+            l.p,
+            if l.p < 0.05 {
+                ": the form misses a real trend; try a higher order or Kriging"
+            } else {
+                ""
+            }
+        ));
+    }
+    if !fit.sensitivities.is_empty() {
+        let parts: Vec<String> = fit
+            .sensitivities
+            .iter()
+            .map(|s| {
+                let name = factors.get(s.factor).map_or("?", String::as_str);
+                format!("{name} {:.3} / {:.3}", s.first.0, s.total.0)
+            })
+            .collect();
+        out.push_str(&format!(
+            "  Sobol indices over the box (first order / total, {}): {}\n",
+            fit.sensitivities[0].method,
+            parts.join(", ")
+        ));
     }
     out
 }

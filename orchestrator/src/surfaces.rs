@@ -7,9 +7,12 @@
 
 use std::collections::{BTreeMap, HashMap};
 
-use orch_metamodel::{Basis, BasisKind, FactorRange, Fit};
+use orch_metamodel::kriging::{Kernel, Trend};
+use orch_metamodel::surrogate::{ModelSpec, Surrogate};
+use orch_metamodel::{Basis, BasisKind, FactorRange};
+use serde_json::json;
 
-use crate::store::{JobState, Store, StoreError, StoredFit};
+use crate::store::{JobState, Sensitivity, Store, StoreError, StoredFit};
 
 /// One succeeded job on a design point (not a held-out test point).
 #[derive(Debug, Clone, PartialEq)]
@@ -139,20 +142,121 @@ pub fn basis_kind(name: &str) -> Option<BasisKind> {
     }
 }
 
-/// The stored fit again, from its observations; `None` when it had no surface or its
-/// basis is unknown.
-pub fn refit(fit: &StoredFit, factor_names: &[String], observed: &Observed) -> Option<Fit> {
+/// A surrogate's spec as the store keeps it (JSON).
+pub fn spec_json(spec: &ModelSpec) -> String {
+    let value = match spec {
+        ModelSpec::Polynomial { kind, terms } => json!({
+            "model": "polynomial",
+            "basis": match kind { BasisKind::Legendre => "legendre", BasisKind::Monomial => "monomial" },
+            "terms": terms,
+        }),
+        ModelSpec::Kriging {
+            kernel,
+            trend,
+            length_scales,
+            process_variance,
+            noise_variance,
+        } => json!({
+            "model": "kriging",
+            "kernel": match kernel { Kernel::Matern52 => "matern52", Kernel::SquaredExponential => "squared_exponential" },
+            "trend": match trend { Trend::Constant => "constant", Trend::Linear => "linear" },
+            "length_scales": length_scales,
+            "process_variance": process_variance,
+            "noise_variance": noise_variance,
+        }),
+    };
+    value.to_string()
+}
+
+/// The spec [`spec_json`] wrote; `None` for text it did not write.
+pub fn spec_from_json(text: &str) -> Option<ModelSpec> {
+    let value: serde_json::Value = serde_json::from_str(text).ok()?;
+    let numbers = |key: &str| -> Option<Vec<f64>> {
+        value[key].as_array()?.iter().map(|v| v.as_f64()).collect()
+    };
+    match value["model"].as_str()? {
+        "polynomial" => Some(ModelSpec::Polynomial {
+            kind: basis_kind(value["basis"].as_str()?)?,
+            terms: value["terms"]
+                .as_array()?
+                .iter()
+                .map(|term| {
+                    term.as_array()?
+                        .iter()
+                        .map(|e| e.as_u64().and_then(|e| u32::try_from(e).ok()))
+                        .collect()
+                })
+                .collect::<Option<_>>()?,
+        }),
+        "kriging" => Some(ModelSpec::Kriging {
+            kernel: match value["kernel"].as_str()? {
+                "matern52" => Kernel::Matern52,
+                "squared_exponential" => Kernel::SquaredExponential,
+                _ => return None,
+            },
+            trend: match value["trend"].as_str()? {
+                "constant" => Trend::Constant,
+                "linear" => Trend::Linear,
+                _ => return None,
+            },
+            length_scales: numbers("length_scales")?,
+            process_variance: value["process_variance"].as_f64()?,
+            noise_variance: value["noise_variance"].as_f64()?,
+        }),
+        _ => None,
+    }
+}
+
+/// The stored surrogate again, from its observations: the one its spec names, or
+/// (fits stored before specs) the complete polynomial of its basis and order; `None`
+/// when it had no surface or cannot be rebuilt.
+pub fn refit(fit: &StoredFit, factor_names: &[String], observed: &Observed) -> Option<Surrogate> {
     if fit.error.is_some() {
         return None;
     }
-    let kind = basis_kind(&fit.basis)?;
-    let basis = Basis::complete(kind, factor_names.len(), u32::try_from(fit.order).ok()?);
-    Fit::new(basis, factor_names, &observed.coded, &observed.y).ok()
+    let spec = match &fit.spec {
+        Some(text) => spec_from_json(text)?,
+        None => ModelSpec::Polynomial {
+            kind: basis_kind(&fit.basis)?,
+            terms: Basis::complete(
+                basis_kind(&fit.basis)?,
+                factor_names.len(),
+                u32::try_from(fit.order).ok()?,
+            )
+            .terms,
+        },
+    };
+    Surrogate::rebuild(&spec, factor_names, &observed.coded, &observed.y).ok()
 }
 
-/// Leave-one-out predictions `y_i − e_i / (1 − h_ii)`, when no run has leverage 1.
-pub fn loo_predictions(fit: &Fit, y: &[f64]) -> Option<Vec<f64>> {
-    let loo = fit.quality.loo_residuals.as_ref()?;
+/// Base samples of the Monte Carlo Sobol indices of a surrogate that has no exact
+/// ones: 4096 rows, `4096 (k + 2)` predictions, indices to about ±0.02.
+pub const SOBOL_BASE_SAMPLES: usize = 4096;
+
+/// Sobol indices of each factor of `surrogate` over the round's box, as the store
+/// keeps them; empty for a surface that does not vary.
+pub fn sensitivities(surrogate: &Surrogate, seed: u64) -> Vec<Sensitivity> {
+    let Some((indices, analytic)) = surrogate.sobol(SOBOL_BASE_SAMPLES, seed) else {
+        return Vec::new();
+    };
+    let method = if analytic { "analytic" } else { "saltelli" };
+    indices
+        .first
+        .iter()
+        .zip(&indices.total)
+        .enumerate()
+        .map(|(factor, (first, total))| Sensitivity {
+            factor,
+            method: method.to_string(),
+            first: (first.value, first.low, first.high),
+            total: (total.value, total.low, total.high),
+        })
+        .collect()
+}
+
+/// Leave-one-out predictions `y_i − e_i`, when every run has a leave-one-out residual.
+pub fn loo_predictions(surrogate: &Surrogate, y: &[f64]) -> Option<Vec<f64>> {
+    let loo = surrogate.quality().loo_residuals.as_ref()?;
     Some(y.iter().zip(loo).map(|(y, e)| y - e).collect())
 }
 

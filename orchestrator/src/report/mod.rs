@@ -14,6 +14,7 @@ pub mod plots;
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::fmt::Write;
 
+use orch_metamodel::surrogate::Surrogate;
 use orch_metamodel::{FactorRange, Fit};
 
 use crate::export::unit_of;
@@ -263,11 +264,14 @@ fn surface_section(data: &Data<'_>, round: &StoredRound, fit: &StoredFit, runs: 
     }
     let fmt =
         |v: Option<f64>, d: usize| v.map(|v| format!("{v:.d$}")).unwrap_or_else(|| "–".into());
+    let model = fit
+        .model
+        .clone()
+        .unwrap_or_else(|| format!("{} basis, order {}", fit.basis, fit.order));
     let _ = writeln!(
         out,
-        "<p>{} basis, order {}, {} runs: σ_cross {} %, R²(σ_cross) {}, R² {}, adjusted R² {}{}</p>",
-        escape(&fit.basis),
-        fit.order,
+        "<p>{}, {} runs: σ_cross {} %, R²(σ_cross) {}, R² {}, adjusted R² {}{}</p>",
+        escape(&model),
         fit.runs,
         fmt(fit.sigma_cross, 1),
         fmt(fit.r2_cross, 4),
@@ -281,8 +285,21 @@ fn surface_section(data: &Data<'_>, round: &StoredRound, fit: &StoredFit, runs: 
             _ => String::new(),
         }
     );
+    out.push_str(&candidates_table(fit, &unit));
+    if let Some(l) = fit.lack_of_fit {
+        let verdict = if l.p < 0.05 {
+            "the surface's form misses a real trend (p < 0.05): try a higher order or Kriging"
+        } else {
+            "no evidence that the surface's form is wrong"
+        };
+        let _ = writeln!(
+            out,
+            "<p>Lack of fit against replicates: F = {:.3} with ({}, {}) degrees of freedom, p = {:.4}: {verdict}.</p>",
+            l.f, l.lack_of_fit_dof, l.pure_error_dof, l.p
+        );
+    }
     let refitted = surfaces::refit(fit, &data.names, &observed);
-    let verdict = match &refitted {
+    let verdict = match refitted.as_ref().and_then(Surrogate::polynomial) {
         Some(f) => crate::verdict::judge(fit, &observed.y, Some(&f.leverages)),
         None => verdict,
     };
@@ -309,16 +326,78 @@ fn surface_section(data: &Data<'_>, round: &StoredRound, fit: &StoredFit, runs: 
         )),
         None => out.push_str("<p class=\"note\">Predicted against observed: no leave-one-out predictions, because a run has leverage 1 (see Definitions).</p>\n"),
     }
-    let effects = surface.effects();
-    if effects.is_empty() {
-        out.push_str("<p class=\"note\">Pareto chart: no standardised effects (as many runs as terms).</p>\n");
-    } else {
-        out.push_str(&figure(
+    match surface.polynomial().map(Fit::effects) {
+        Some(effects) if effects.is_empty() => out.push_str("<p class=\"note\">Pareto chart: no standardised effects (as many runs as terms).</p>\n"),
+        Some(effects) => out.push_str(&figure(
             &plots::pareto(&format!("Pareto chart: {}", fit.response), &effects),
             "Terms ranked by |t|; blue positive, orange negative coefficients.",
-        ));
+        )),
+        None => out.push_str("<p class=\"note\">Pareto chart: a Kriging surface has no terms; the Sobol indices beside it rank the factors instead.</p>\n"),
     }
+    out.push_str(&sobol_figure(data, fit));
     out
+}
+
+/// The candidates of the automatic model choice and their leave-one-out RMSE; empty
+/// when only one model was fitted.
+fn candidates_table(fit: &StoredFit, unit: &str) -> String {
+    if fit.candidates.len() < 2 {
+        return String::new();
+    }
+    let rows: Vec<Vec<String>> = fit
+        .candidates
+        .iter()
+        .map(|c| {
+            vec![
+                escape(&c.model),
+                c.parameters.to_string(),
+                c.loo_rmse.map(number).unwrap_or_else(|| "–".into()),
+                if c.chosen { "chosen".into() } else { String::new() },
+                escape(c.note.as_deref().unwrap_or("")),
+            ]
+        })
+        .collect();
+    format!(
+        "<p class=\"note\">Model choice: the candidate with the smallest leave-one-out RMSE, a simpler one within 5 % of it preferred.</p>\n{}",
+        table(
+            &[
+                "candidate".to_string(),
+                "parameters".to_string(),
+                format!("leave-one-out RMSE [{unit}]"),
+                String::new(),
+                "note".to_string(),
+            ],
+            &rows
+        )
+    )
+}
+
+/// The Sobol indices of a stored fit as a chart, or why there are none.
+fn sobol_figure(data: &Data<'_>, fit: &StoredFit) -> String {
+    if fit.sensitivities.is_empty() {
+        return "<p class=\"note\">Sobol indices: none (the surface does not vary over the box).</p>\n".into();
+    }
+    let bars: Vec<plots::SobolBar> = fit
+        .sensitivities
+        .iter()
+        .map(|s| {
+            let name = data
+                .names
+                .get(s.factor)
+                .cloned()
+                .unwrap_or_else(|| format!("factor {}", s.factor));
+            (name, s.first, s.total)
+        })
+        .collect();
+    let how = if fit.sensitivities[0].method == "analytic" {
+        "exact, from the Legendre coefficients"
+    } else {
+        "Saltelli–Jansen Monte Carlo through the surface, with 95 % intervals"
+    };
+    figure(
+        &plots::sobol(&format!("Sobol indices: {}", fit.response), &bars),
+        &format!("The share of the response's variance over the round's box (factors uniform on it) due to each factor alone (dark) and with its interactions (light); {how}."),
+    )
 }
 
 /// The surface drawn over the round's box in natural units.
@@ -327,7 +406,7 @@ fn surface_figures(
     round: &StoredRound,
     fit: &StoredFit,
     unit: &str,
-    surface: &Fit,
+    surface: &Surrogate,
     observed: &Observed,
 ) -> String {
     let ranges: &[FactorRange] = &round.ranges;
@@ -632,14 +711,20 @@ uncertainty:
         let row = store.study_by_name("known").await.unwrap().unwrap();
         let html = render(store, &row, Some(study)).await.unwrap();
 
-        // A heat map, predicted against observed and a Pareto chart for the rate; none
-        // for the constant fraction; the trust region; one series chart.
-        assert_eq!(html.matches("<svg").count(), 3 + 1 + 1, "{html}");
+        // A heat map, predicted against observed, a Pareto chart and Sobol indices for
+        // the rate; none for the constant fraction; the trust region; one series chart.
+        assert_eq!(html.matches("<svg").count(), 4 + 1 + 1, "{html}");
         for text in [
             "<h2>Definitions</h2>",
             "Response surface: discharge_rate [kg/s]",
             "Predicted against observed: discharge_rate",
             "Pareto chart: discharge_rate",
+            "Sobol indices: discharge_rate",
+            "exact, from the Legendre coefficients",
+            // The model choice and its table: the quadratic wins on a quadratic.
+            "<p>quadratic, 5 of 6 terms, 9 runs: σ_cross",
+            "<th>leave-one-out RMSE [kg/s]</th>",
+            "kriging, Matérn 5/2, constant trend",
             "fine_fraction_outer_2 does not vary: it is 1 in every run",
             "Optimum of round 0",
             "Monte Carlo at the optimum of round 0",
@@ -647,7 +732,7 @@ uncertainty:
             "Series: mass_flow_rate",
             "mass_flow_rate [kg/s]",
         ] {
-            assert!(html.contains(text), "the report lacks {text}");
+            assert!(html.contains(text), "the report lacks {text}: {html}");
         }
         assert!(!html.contains("Response surface: fine_fraction_outer_2 along"));
         assert!(!html.contains("<script"), "no scripts");

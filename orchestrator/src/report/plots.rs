@@ -346,6 +346,60 @@ pub fn pareto(title: &str, effects: &[(String, f64)]) -> String {
     })
 }
 
+/// One factor's Sobol indices for the sensitivity chart: its name, and the first-order
+/// and total index each as `(estimate, low, high)`.
+pub type SobolBar = (String, (f64, f64, f64), (f64, f64, f64));
+
+/// Sobol indices per factor as paired horizontal bars (first order dark, total light)
+/// on a 0–1 axis, with their 95 % intervals as whiskers.
+pub fn sobol(title: &str, bars: &[SobolBar]) -> String {
+    let n = bars.len().max(1);
+    svg(HALF, 60 + 40 * n as u32 + 50, |root| {
+        let mut chart = ChartBuilder::on(root)
+            .caption(title, (FONT, 15))
+            .margin(10)
+            .x_label_area_size(40)
+            .y_label_area_size(10)
+            .build_cartesian_2d(0.0..1.05, -0.5..(n as f64 - 0.5))?;
+        chart
+            .configure_mesh()
+            .disable_y_mesh()
+            .y_labels(0)
+            .x_desc("share of the variance (dark: factor alone; light: with interactions)")
+            .x_label_formatter(&tick)
+            .label_style((FONT, 11))
+            .light_line_style(WHITE)
+            .draw()?;
+        for (i, (name, first, total)) in bars.iter().enumerate() {
+            let y = (n - 1 - i) as f64;
+            for ((value, low, high), (offset, shade)) in
+                [(*total, (0.17, 0.35)), (*first, (-0.17, 0.9))]
+            {
+                let value = value.clamp(0.0, 1.05);
+                chart.draw_series(std::iter::once(Rectangle::new(
+                    [(0.0, y + offset - 0.15), (value, y + offset + 0.15)],
+                    BLUE.mix(shade).filled(),
+                )))?;
+                if high > low {
+                    chart.draw_series(LineSeries::new(
+                        vec![
+                            (low.clamp(0.0, 1.05), y + offset),
+                            (high.clamp(0.0, 1.05), y + offset),
+                        ],
+                        BLACK.stroke_width(1),
+                    ))?;
+                }
+            }
+            chart.draw_series(std::iter::once(Text::new(
+                format!("{name} ({} / {})", tick(&first.0), tick(&total.0)),
+                (0.62, y + 0.1),
+                (FONT, 12).into_font().color(&BLACK),
+            )))?;
+        }
+        Ok(())
+    })
+}
+
 /// One round in the trust-region chart: its name, its box `[(x0, x1), (y0, y1)]` and
 /// its optimum `(x, y)`, natural units.
 pub type RoundBox = (String, [(f64, f64); 2], Option<(f64, f64)>);

@@ -25,7 +25,9 @@ use sqlx::sqlite::{SqliteConnectOptions, SqliteJournalMode, SqlitePoolOptions, S
 use sqlx::{Row, SqlitePool};
 
 pub use comparisons::{ComparisonRecord, ResponseRecord, SpeedRecord, StoredComparison};
-pub use rounds::{FitRecord, RoundRecord, StoredFit, StoredRound};
+pub use rounds::{
+    CandidateScore, FitRecord, LackOfFitRow, RoundRecord, Sensitivity, StoredFit, StoredRound,
+};
 pub use rows::{
     Decision, FactorRow, JobRow, JobState, PointRow, StudyRow, StudyState, UnknownState,
     DESIGN_STAGE,

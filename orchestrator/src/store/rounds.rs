@@ -2,7 +2,8 @@
 
 use std::path::Path;
 
-use orch_metamodel::{FactorRange, Fit, Optimum, Spread, TestQuality};
+use orch_metamodel::surrogate::Surrogate;
+use orch_metamodel::{FactorRange, Optimum, Spread, TestQuality};
 use sqlx::Row;
 
 use super::rows::parse_state;
@@ -20,8 +21,8 @@ pub struct FitRecord {
     pub order: u32,
     /// Runs available.
     pub runs: usize,
-    /// The fit, or why there is none.
-    pub result: Result<Fit, String>,
+    /// The chosen surrogate, or why there is none.
+    pub result: Result<Surrogate, String>,
     /// Held-out test runs and the fit's error on them.
     pub test: Option<(usize, TestQuality)>,
     /// The chosen surrogate's name for people, e.g. `quadratic, 5 of 6 terms`.
@@ -220,14 +221,10 @@ impl Store {
         let round = record.round;
         for fit in &record.fits {
             let (quality, error) = match &fit.result {
-                Ok(f) => (Some(&f.quality), None),
+                Ok(s) => (Some(s.quality()), None),
                 Err(e) => (None, Some(e.clone())),
             };
-            let terms = fit
-                .result
-                .as_ref()
-                .map(|f| f.coefficients.len())
-                .unwrap_or(0);
+            let terms = fit.result.as_ref().map(|s| s.parameters()).unwrap_or(0);
             let fit_id: i64 = sqlx::query(
                 "INSERT INTO fits (study_id, round, response, basis, ord, runs, terms, r2, adjusted_r2, sigma_cross,
                                    r2_cross, press, residual_std, error, test_runs, sigma_test, r2_test,
@@ -261,7 +258,7 @@ impl Store {
             .await
             .map_err(query_error("record a fit"))?
             .get(0);
-            if let Ok(f) = &fit.result {
+            if let Some(f) = fit.result.as_ref().ok().and_then(Surrogate::polynomial) {
                 for (idx, (name, coefficient)) in f.names.iter().zip(&f.coefficients).enumerate() {
                     sqlx::query("INSERT INTO fit_terms (fit_id, idx, name, coefficient, std_error, t_value) VALUES (?, ?, ?, ?, ?, ?)")
                         .bind(fit_id)

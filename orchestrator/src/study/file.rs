@@ -264,6 +264,40 @@ pub enum BasisFile {
     Legendre,
 }
 
+/// Which surrogate each response gets.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ModelFile {
+    /// The best of pruned polynomials of order 1–3 and Kriging by leave-one-out RMSE.
+    Auto,
+    /// The complete polynomial of `order`.
+    Polynomial,
+    /// Kriging.
+    Kriging,
+}
+
+/// Kriging's correlation kernels.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum KernelFile {
+    /// Matérn with ν = 5/2: twice differentiable, the usual choice for physics.
+    #[default]
+    Matern52,
+    /// Squared exponential: infinitely smooth.
+    SquaredExponential,
+}
+
+/// Kriging's trends.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TrendFile {
+    /// A constant mean (ordinary Kriging).
+    #[default]
+    Constant,
+    /// A mean linear in the factors (universal Kriging).
+    Linear,
+}
+
 /// The `metamodel:` section.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -271,9 +305,19 @@ pub struct MetamodelFile {
     /// Basis (default legendre).
     #[serde(default)]
     pub basis: BasisFile,
-    /// Total polynomial order, 1 to 3 (default 2).
-    #[serde(default = "two")]
-    pub order: u32,
+    /// Surrogate: `auto`, `polynomial` or `kriging` (default `auto`, or `polynomial`
+    /// when `order` is given).
+    #[serde(default)]
+    pub model: Option<ModelFile>,
+    /// Total polynomial order, 1 to 3, of `model: polynomial` (default 2).
+    #[serde(default)]
+    pub order: Option<u32>,
+    /// Kriging's kernel (default `matern52`).
+    #[serde(default)]
+    pub kernel: KernelFile,
+    /// Kriging's trend (default `constant`).
+    #[serde(default)]
+    pub trend: TrendFile,
     /// Extra Latin-hypercube points per round, run but left out of the fit, to
     /// measure prediction error (default 0; `k + 2`, at least 4, on a full-factorial
     /// grid with an objective).
@@ -285,14 +329,13 @@ impl Default for MetamodelFile {
     fn default() -> Self {
         MetamodelFile {
             basis: BasisFile::Legendre,
-            order: 2,
+            model: None,
+            order: None,
+            kernel: KernelFile::default(),
+            trend: TrendFile::default(),
             test_points: None,
         }
     }
-}
-
-fn two() -> u32 {
-    2
 }
 
 /// The `next_round:` section.

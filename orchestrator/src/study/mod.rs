@@ -16,6 +16,8 @@ use orch_adapters::{
     equipment_for, equipment_names, solver_for, solver_names, stage_for, stage_kinds, Case,
     EquipmentOnSolver, ParameterSpec, ResolvedParameters, Simulation, Stage, DEFAULT_EQUIPMENT,
 };
+use orch_metamodel::kriging::{Kernel, KrigingOptions, Trend};
+use orch_metamodel::surrogate::ModelChoice;
 use orch_metamodel::{
     BasisKind, CentralCompositeAlpha, Design, DesignKind, Distribution, FactorRange, Goal, MAX_RUNS,
 };
@@ -23,7 +25,7 @@ use sha2::{Digest, Sha256};
 
 use file::{
     AlphaFile, BasisFile, DesignFile, DesignType, DistributionFile, ExecutorFile, FixedValue,
-    GoalFile,
+    GoalFile, KernelFile, ModelFile, TrendFile,
 };
 pub use file::{ExecutorKind, StudyFile};
 
@@ -128,16 +130,33 @@ impl Objective {
 /// The response surfaces fitted after each round.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MetamodelConfig {
-    /// Basis.
+    /// Basis of the polynomials.
     pub basis: BasisKind,
-    /// Total order.
-    pub order: u32,
+    /// Which surrogate each response gets.
+    pub model: ModelChoice,
+    /// Kriging's kernel.
+    pub kernel: Kernel,
+    /// Kriging's trend.
+    pub trend: Trend,
     /// Next box half-width over the current one.
     pub shrink: f64,
     /// Relative change of the optimum below which the study stops.
     pub tolerance: f64,
     /// Held-out Latin-hypercube points per round.
     pub test_points: usize,
+}
+
+impl MetamodelConfig {
+    /// Kriging's settings: the study's kernel and trend, the nugget from replicates
+    /// (fitted when there are none), hyperparameter starts seeded by the study.
+    pub fn kriging_options(&self, seed: u64) -> KrigingOptions {
+        KrigingOptions {
+            kernel: self.kernel,
+            trend: self.trend,
+            seed,
+            ..KrigingOptions::default()
+        }
+    }
 }
 
 /// Monte Carlo at the optimum over uncertain factors.
@@ -873,15 +892,27 @@ impl Checker<'_> {
                 "more than one round needs an `objective:` to move the box towards",
             ));
         }
-        if !(1..=3).contains(&file.metamodel.order) {
-            return Err(self.error(
-                "metamodel.order",
-                format!(
-                    "expected an order of 1, 2 or 3, got {}",
-                    file.metamodel.order
-                ),
-            ));
-        }
+        let model = match (file.metamodel.model, file.metamodel.order) {
+            (None, None) | (Some(ModelFile::Auto), None) => ModelChoice::Auto,
+            (Some(ModelFile::Kriging), None) => ModelChoice::Kriging,
+            (None | Some(ModelFile::Polynomial), order) => {
+                let order = order.unwrap_or(2);
+                if !(1..=3).contains(&order) {
+                    return Err(self.error(
+                        "metamodel.order",
+                        format!("expected an order of 1, 2 or 3, got {order}"),
+                    ));
+                }
+                ModelChoice::Polynomial { order }
+            }
+            (Some(other), Some(_)) => {
+                let name = if other == ModelFile::Auto { "auto" } else { "kriging" };
+                return Err(self.error(
+                    "metamodel.order",
+                    format!("`order` sets the polynomial of `model: polynomial`; `model: {name}` chooses its own (remove `order`, or write `model: polynomial`)"),
+                ));
+            }
+        };
         let shrink = file.next_round.shrink;
         if !(shrink > 0.0 && shrink <= 1.0) {
             return Err(self.error(
@@ -897,7 +928,15 @@ impl Checker<'_> {
                 BasisFile::Monomial => BasisKind::Monomial,
                 BasisFile::Legendre => BasisKind::Legendre,
             },
-            order: file.metamodel.order,
+            model,
+            kernel: match file.metamodel.kernel {
+                KernelFile::Matern52 => Kernel::Matern52,
+                KernelFile::SquaredExponential => Kernel::SquaredExponential,
+            },
+            trend: match file.metamodel.trend {
+                TrendFile::Constant => Trend::Constant,
+                TrendFile::Linear => Trend::Linear,
+            },
             shrink,
             tolerance: file.next_round.tolerance,
             test_points: file.metamodel.test_points.unwrap_or_else(|| {

@@ -1,0 +1,625 @@
+//! One response's surrogate, chosen by how well it predicts runs it did not see.
+//!
+//! The candidates are polynomials of order 1, 2 and 3 in the study's basis, each pruned
+//! by the rule of [`crate::prune`], and a Kriging model ([`crate::kriging`]). Each is
+//! scored by its leave-one-out RMSE, `sqrt(PRESS / n)` in the response's unit: the
+//! polynomials' from their hat matrix, Kriging's in closed form with its
+//! hyperparameters held at their maximum-likelihood values (which makes Kriging's score
+//! slightly optimistic; the alternative, refitting the hyperparameters n times, costs n
+//! maximisations). A candidate that cannot be scored (too few runs for its terms, a run
+//! of leverage one) says why and is not chosen.
+//!
+//! **The rule.** The candidate with the smallest score wins, except that a simpler one
+//! (earlier in the order linear, quadratic, cubic, Kriging) whose score is within
+//! [`PARSIMONY`] of the smallest is preferred: a gain that small is within the noise of
+//! a leave-one-out estimate and does not pay for the extra parameters. When no
+//! candidate can be scored, the quadratic (else the linear) is kept, and the choice
+//! says it was not made by prognosis.
+//!
+//! This is the prognosis-based choice of optiSLang's Metamodel of Optimal Prognosis
+//! (Most & Will 2008) with leave-one-out in place of its split sample; see also Forrester,
+//! Sóbester & Keane, *Engineering Design via Surrogate Modelling* (2008), §2.4 and §3.
+
+use crate::basis::{Basis, BasisKind};
+use crate::fit::{test_quality, Fit, Interval, Quality, TestQuality};
+use crate::kriging::{Kernel, Kriging, KrigingOptions, Trend};
+use crate::propagate::Distribution;
+use crate::prune::prune;
+use crate::sobol::{legendre_sobol, sobol_indices, Estimate, SobolIndices};
+use crate::student::student_t_quantile;
+
+/// A simpler candidate whose leave-one-out RMSE is within this fraction of the best
+/// one's is chosen over it.
+pub const PARSIMONY: f64 = 0.05;
+
+/// Which surrogate a study asks for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ModelChoice {
+    /// The best of pruned polynomials of order 1–3 and Kriging by leave-one-out RMSE.
+    Auto,
+    /// The complete polynomial of this order (1–3), nothing dropped.
+    Polynomial {
+        /// Total order.
+        order: u32,
+    },
+    /// Kriging with the study's kernel and trend.
+    Kriging,
+}
+
+/// A fitted surrogate of one response over coded factors.
+#[derive(Debug, Clone)]
+pub enum Surrogate {
+    /// A least-squares polynomial (complete or pruned).
+    Polynomial(Fit),
+    /// A Gaussian-process model, with its quality on the runs it was fitted to.
+    Kriging {
+        /// The model.
+        model: Box<Kriging>,
+        /// R², leave-one-out residuals, σ_cross, as for a polynomial.
+        quality: Quality,
+    },
+}
+
+/// Enough to rebuild a surrogate on the same runs without searching again.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ModelSpec {
+    /// A polynomial with exactly these terms.
+    Polynomial {
+        /// Basis kind.
+        kind: BasisKind,
+        /// Exponents of each kept term.
+        terms: Vec<Vec<u32>>,
+    },
+    /// A Kriging model with these hyperparameters.
+    Kriging {
+        /// Kernel.
+        kernel: Kernel,
+        /// Trend.
+        trend: Trend,
+        /// Length scales in coded units, one per factor.
+        length_scales: Vec<f64>,
+        /// Process variance σ² in the response's unit squared.
+        process_variance: f64,
+        /// Noise (nugget) variance in the response's unit squared.
+        noise_variance: f64,
+    },
+}
+
+/// How one candidate did.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Candidate {
+    /// Its name, e.g. `quadratic, 5 of 6 terms`.
+    pub name: String,
+    /// Parameters it fitted.
+    pub parameters: usize,
+    /// Leave-one-out RMSE in the response's unit, when it could be scored.
+    pub loo_rmse: Option<f64>,
+    /// Why it has no score or no fit.
+    pub note: Option<String>,
+}
+
+/// The chosen surrogate and the table it was chosen from.
+#[derive(Debug, Clone)]
+pub struct Choice {
+    /// The surrogate the round uses.
+    pub surrogate: Surrogate,
+    /// Every candidate, in the order linear, quadratic, cubic, Kriging.
+    pub candidates: Vec<Candidate>,
+    /// Index of the chosen one in `candidates`.
+    pub chosen: usize,
+    /// True when it was chosen by its score, false when no candidate had one.
+    pub by_prognosis: bool,
+}
+
+/// Fits the surrogate `model` asks for to responses `y` at coded points `x`;
+/// `kind` is the polynomials' basis and `kriging` Kriging's settings. The error says
+/// why no candidate could be fitted at all.
+pub fn choose(
+    model: ModelChoice,
+    kind: BasisKind,
+    factor_names: &[String],
+    x: &[Vec<f64>],
+    y: &[f64],
+    kriging: &KrigingOptions,
+) -> Result<Choice, String> {
+    let k = factor_names.len();
+    let mut fitted: Vec<(Candidate, Option<Surrogate>)> = Vec::new();
+    let orders: Vec<(u32, bool)> = match model {
+        ModelChoice::Auto => vec![(1, true), (2, true), (3, true)],
+        ModelChoice::Polynomial { order } => vec![(order, false)],
+        ModelChoice::Kriging => vec![],
+    };
+    for (order, pruned) in orders {
+        let basis = Basis::complete(kind, k, order);
+        let full = basis.len();
+        let result = if pruned {
+            prune(basis, factor_names, x, y)
+        } else {
+            Fit::new(basis, factor_names, x, y)
+        };
+        fitted.push(match result {
+            Ok(fit) => {
+                let candidate = Candidate {
+                    name: polynomial_name(order, fit.coefficients.len(), full),
+                    parameters: fit.coefficients.len(),
+                    loo_rmse: fit.quality.press.map(|p| (p / y.len() as f64).sqrt()),
+                    note: fit
+                        .quality
+                        .press
+                        .is_none()
+                        .then(|| "a run of leverage 1 leaves no leave-one-out residual".into()),
+                };
+                (candidate, Some(Surrogate::Polynomial(fit)))
+            }
+            Err(e) => (
+                Candidate {
+                    name: polynomial_name(order, full, full),
+                    parameters: full,
+                    loo_rmse: None,
+                    note: Some(e.to_string()),
+                },
+                None,
+            ),
+        });
+    }
+    if matches!(model, ModelChoice::Auto | ModelChoice::Kriging) {
+        let name = kriging_name(kriging.kernel, kriging.trend);
+        fitted.push(match Kriging::fit(x, y, kriging) {
+            Ok(fit) => {
+                let surrogate = Surrogate::kriging(fit, y);
+                let Surrogate::Kriging { quality, .. } = &surrogate else {
+                    unreachable!("Surrogate::kriging builds a Kriging surrogate")
+                };
+                let candidate = Candidate {
+                    name,
+                    parameters: surrogate.parameters(),
+                    loo_rmse: quality.press.map(|p| (p / y.len() as f64).sqrt()),
+                    note: None,
+                };
+                (candidate, Some(surrogate))
+            }
+            Err(e) => (
+                Candidate {
+                    name,
+                    parameters: 0,
+                    loo_rmse: None,
+                    note: Some(e.to_string()),
+                },
+                None,
+            ),
+        });
+    }
+
+    let scored = |i: usize| {
+        fitted[i]
+            .1
+            .as_ref()
+            .and(fitted[i].0.loo_rmse)
+            .filter(|v| v.is_finite())
+    };
+    let best = (0..fitted.len())
+        .filter_map(scored)
+        .min_by(f64::total_cmp);
+    let (chosen, by_prognosis) = match best {
+        Some(best) => (
+            (0..fitted.len())
+                .find(|&i| scored(i).is_some_and(|v| v <= best * (1.0 + PARSIMONY)))
+                .expect("the best candidate is within its own margin"),
+            true,
+        ),
+        None => {
+            // Nothing scored: the quadratic, else any candidate that fitted.
+            let order_of_preference = [1, 0, 2, 3];
+            let Some(i) = order_of_preference
+                .iter()
+                .copied()
+                .filter(|&i| i < fitted.len())
+                .chain(0..fitted.len())
+                .find(|&i| fitted[i].1.is_some())
+            else {
+                let reasons: Vec<String> = fitted
+                    .iter()
+                    .map(|(c, _)| format!("{}: {}", c.name, c.note.clone().unwrap_or_default()))
+                    .collect();
+                return Err(format!("no surrogate could be fitted ({})", reasons.join("; ")));
+            };
+            (i, false)
+        }
+    };
+    let surrogate = fitted[chosen].1.clone().expect("the chosen candidate fitted");
+    Ok(Choice {
+        surrogate,
+        candidates: fitted.into_iter().map(|(c, _)| c).collect(),
+        chosen,
+        by_prognosis,
+    })
+}
+
+fn polynomial_name(order: u32, kept: usize, full: usize) -> String {
+    let degree = match order {
+        1 => "linear",
+        2 => "quadratic",
+        3 => "cubic",
+        _ => "polynomial",
+    };
+    if kept == full {
+        format!("{degree}, all {full} terms")
+    } else {
+        format!("{degree}, {kept} of {full} terms")
+    }
+}
+
+fn kriging_name(kernel: Kernel, trend: Trend) -> String {
+    let kernel = match kernel {
+        Kernel::Matern52 => "Matérn 5/2",
+        Kernel::SquaredExponential => "squared exponential",
+    };
+    let trend = match trend {
+        Trend::Constant => "constant trend",
+        Trend::Linear => "linear trend",
+    };
+    format!("kriging, {kernel}, {trend}")
+}
+
+/// R², leave-one-out residuals and σ_cross of a Kriging model on its own runs,
+/// defined as for a polynomial ([`Quality`]).
+fn kriging_quality(model: &Kriging, y: &[f64], parameters: usize) -> Quality {
+    let n = y.len();
+    let mean = y.iter().sum::<f64>() / n as f64;
+    let ss_tot: f64 = y.iter().map(|v| (v - mean).powi(2)).sum();
+    let ss_res: f64 = model
+        .points()
+        .iter()
+        .zip(y)
+        .map(|(x, v)| (v - model.predict(x)).powi(2))
+        .sum();
+    let loo = model.loo_residuals();
+    let press: f64 = loo.iter().map(|e| e * e).sum();
+    let spread = if n > 1 {
+        (ss_tot / (n - 1) as f64).sqrt()
+    } else {
+        0.0
+    };
+    let sigma_cross_percent = (spread > 0.0).then(|| 100.0 * (press / n as f64).sqrt() / spread);
+    Quality {
+        runs: n,
+        terms: parameters,
+        r2: if ss_tot > 0.0 { 1.0 - ss_res / ss_tot } else { 1.0 },
+        adjusted_r2: None,
+        residual_std: Some(model.noise_variance().sqrt()),
+        loo_residuals: Some(loo),
+        press: Some(press),
+        sigma_cross_percent,
+        r2_cross: sigma_cross_percent.map(|s| 1.0 - (s / 100.0).powi(2)),
+    }
+}
+
+impl Surrogate {
+    /// A Kriging surrogate with its quality on the responses `y` it was fitted to.
+    pub fn kriging(model: Kriging, y: &[f64]) -> Surrogate {
+        let parameters = kriging_parameters(&model);
+        let quality = kriging_quality(&model, y, parameters);
+        Surrogate::Kriging {
+            model: Box::new(model),
+            quality,
+        }
+    }
+
+    /// Its value at coded point `x`, in the response's unit.
+    pub fn predict(&self, x: &[f64]) -> f64 {
+        match self {
+            Surrogate::Polynomial(fit) => fit.predict(x),
+            Surrogate::Kriging { model, .. } => model.predict(x),
+        }
+    }
+
+    /// Standard error of its value at `x` as an estimate of the mean response (the
+    /// surrogate's own error, without run-to-run noise), in the response's unit;
+    /// `None` for a polynomial without residual degrees of freedom.
+    pub fn mean_std(&self, x: &[f64]) -> Option<f64> {
+        match self {
+            Surrogate::Polynomial(fit) => fit.confidence_interval(x, 0.95).map(|i| i.std_error),
+            Surrogate::Kriging { model, .. } => Some(model.predict_variance(x).max(0.0).sqrt()),
+        }
+    }
+
+    /// The interval that holds a new run at `x` with probability `confidence`:
+    /// surrogate error and run-to-run noise. A polynomial's uses Student's t with its
+    /// residual degrees of freedom; Kriging's the normal quantile of its posterior.
+    pub fn prediction_interval(&self, x: &[f64], confidence: f64) -> Option<Interval> {
+        match self {
+            Surrogate::Polynomial(fit) => fit.prediction_interval(x, confidence),
+            Surrogate::Kriging { model, .. } => {
+                let estimate = model.predict(x);
+                let std_error =
+                    (model.predict_variance(x).max(0.0) + model.noise_variance()).sqrt();
+                // The normal quantile, as Student's t with a very large ν.
+                let z = student_t_quantile(0.5 + 0.5 * confidence, 1e9);
+                Some(Interval {
+                    estimate,
+                    std_error,
+                    low: estimate - z * std_error,
+                    high: estimate + z * std_error,
+                    degrees_of_freedom: f64::INFINITY,
+                })
+            }
+        }
+    }
+
+    /// `σ_test_rel` and its `R²` on held-out points (coded `x`, observed `y`).
+    pub fn test(&self, x: &[Vec<f64>], y: &[f64]) -> Option<TestQuality> {
+        test_quality(&|p| self.predict(p), x, y)
+    }
+
+    /// Quality on the runs it was fitted to.
+    pub fn quality(&self) -> &Quality {
+        match self {
+            Surrogate::Polynomial(fit) => &fit.quality,
+            Surrogate::Kriging { quality, .. } => quality,
+        }
+    }
+
+    /// Parameters it fitted: terms, or Kriging's trend terms, length scales, process
+    /// variance and nugget.
+    pub fn parameters(&self) -> usize {
+        match self {
+            Surrogate::Polynomial(fit) => fit.coefficients.len(),
+            Surrogate::Kriging { model, .. } => kriging_parameters(model),
+        }
+    }
+
+    /// The polynomial, when it is one.
+    pub fn polynomial(&self) -> Option<&Fit> {
+        match self {
+            Surrogate::Polynomial(fit) => Some(fit),
+            Surrogate::Kriging { .. } => None,
+        }
+    }
+
+    /// True for a polynomial of total order two or less, whose optimum in a box is
+    /// found exactly.
+    pub fn is_quadratic(&self) -> bool {
+        matches!(self, Surrogate::Polynomial(fit) if fit.basis.order <= 2)
+    }
+
+    /// Sobol indices of each factor with the factors uniform over the coded box
+    /// `[-1, 1]^k` (the round's box): exact from the coefficients of a Legendre
+    /// polynomial (intervals of zero width, `analytic` true), else estimated by
+    /// Saltelli–Jansen Monte Carlo with `base_samples` rows seeded by `seed`.
+    /// `None` for a surface that does not vary.
+    pub fn sobol(&self, base_samples: usize, seed: u64) -> Option<(SobolIndices, bool)> {
+        if let Some((first, total)) = self.polynomial().and_then(legendre_sobol) {
+            let exact = |v: Vec<f64>| {
+                v.into_iter()
+                    .map(|value| Estimate {
+                        value,
+                        low: value,
+                        high: value,
+                    })
+                    .collect()
+            };
+            let indices = SobolIndices {
+                first: exact(first),
+                total: exact(total),
+                variance: f64::NAN,
+                evaluations: 0,
+            };
+            return Some((indices, true));
+        }
+        if let Surrogate::Polynomial(fit) = self {
+            if fit.basis.kind == BasisKind::Legendre {
+                return None; // legendre_sobol found no variance: a constant surface.
+            }
+        }
+        let k = match self {
+            Surrogate::Polynomial(fit) => fit.basis.n_factors,
+            Surrogate::Kriging { model, .. } => model.length_scales().len(),
+        };
+        let uniform = Distribution::Uniform {
+            low: -1.0,
+            high: 1.0,
+        };
+        let predict = |x: &[f64]| self.predict(x);
+        sobol_indices(&predict, &vec![uniform; k], base_samples, seed)
+            .ok()
+            .map(|indices| (indices, false))
+    }
+
+    /// What rebuilds it on the same runs without a search.
+    pub fn spec(&self) -> ModelSpec {
+        match self {
+            Surrogate::Polynomial(fit) => ModelSpec::Polynomial {
+                kind: fit.basis.kind,
+                terms: fit.basis.terms.clone(),
+            },
+            Surrogate::Kriging { model, .. } => ModelSpec::Kriging {
+                kernel: model.kernel(),
+                trend: model.trend(),
+                length_scales: model.length_scales().to_vec(),
+                process_variance: model.process_variance(),
+                noise_variance: model.noise_variance(),
+            },
+        }
+    }
+
+    /// The surrogate `spec` describes, fitted again to `y` at `x`.
+    pub fn rebuild(
+        spec: &ModelSpec,
+        factor_names: &[String],
+        x: &[Vec<f64>],
+        y: &[f64],
+    ) -> Result<Surrogate, String> {
+        match spec {
+            ModelSpec::Polynomial { kind, terms } => {
+                let basis = Basis::from_terms(*kind, factor_names.len(), terms.clone());
+                Fit::new(basis, factor_names, x, y)
+                    .map(Surrogate::Polynomial)
+                    .map_err(|e| e.to_string())
+            }
+            ModelSpec::Kriging {
+                kernel,
+                trend,
+                length_scales,
+                process_variance,
+                noise_variance,
+            } => Kriging::with_hyperparameters(
+                x,
+                y,
+                *kernel,
+                *trend,
+                length_scales,
+                *process_variance,
+                *noise_variance,
+            )
+            .map(|model| Surrogate::kriging(model, y))
+            .map_err(|e| e.to_string()),
+        }
+    }
+}
+
+fn kriging_parameters(model: &Kriging) -> usize {
+    let trend = match model.trend() {
+        Trend::Constant => 1,
+        Trend::Linear => 1 + model.length_scales().len(),
+    };
+    trend + model.length_scales().len() + 2
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::design::{Design, DesignKind};
+
+    fn names(k: usize) -> Vec<String> {
+        (0..k).map(|i| format!("x{i}")).collect()
+    }
+
+    fn lhs(k: usize, n: usize, seed: u64) -> Vec<Vec<f64>> {
+        Design::build(
+            &DesignKind::LatinHypercube {
+                samples: n,
+                seed,
+                candidates: 20,
+            },
+            k,
+        )
+        .unwrap()
+        .points
+    }
+
+    #[test]
+    fn a_plane_is_modelled_by_the_linear_candidate() {
+        // y = 1 + 2 x0 − x1 with normal noise (σ = 0.01, seeded): the higher orders only
+        // fit noise, so the simplest within the margin wins.
+        use rand::SeedableRng;
+        use rand_distr::Distribution as _;
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+        let noise = rand_distr::Normal::new(0.0, 0.01).unwrap();
+        let x = lhs(2, 20, 1);
+        let y: Vec<f64> = x
+            .iter()
+            .map(|p| 1.0 + 2.0 * p[0] - p[1] + noise.sample(&mut rng))
+            .collect();
+        let choice = choose(
+            ModelChoice::Auto,
+            BasisKind::Legendre,
+            &names(2),
+            &x,
+            &y,
+            &KrigingOptions::default(),
+        )
+        .unwrap();
+        assert_eq!(choice.candidates.len(), 4);
+        assert_eq!(choice.chosen, 0, "{:?}", choice.candidates);
+        assert!(choice.by_prognosis);
+        assert!(choice.candidates[0].name.starts_with("linear"));
+        assert!(choice.candidates[3].name.starts_with("kriging"));
+    }
+
+    #[test]
+    fn a_function_no_low_polynomial_can_follow_is_given_to_kriging() {
+        // Branin-like ripples: sin(3 x0) cos(2 x1) + x0² over 30 points.
+        let x = lhs(2, 30, 2);
+        let f = |p: &[f64]| (3.0 * p[0]).sin() * (2.0 * p[1]).cos() * 2.0 + p[0] * p[0];
+        let y: Vec<f64> = x.iter().map(|p| f(p)).collect();
+        let choice = choose(
+            ModelChoice::Auto,
+            BasisKind::Legendre,
+            &names(2),
+            &x,
+            &y,
+            &KrigingOptions::default(),
+        )
+        .unwrap();
+        assert!(
+            matches!(choice.surrogate, Surrogate::Kriging { .. }),
+            "{:?}",
+            choice.candidates
+        );
+        // Its prognosis beats every polynomial's by more than the margin.
+        let kriging = choice.candidates[3].loo_rmse.unwrap();
+        for c in &choice.candidates[..3] {
+            assert!(c.loo_rmse.unwrap() > kriging * (1.0 + PARSIMONY), "{c:?}");
+        }
+    }
+
+    #[test]
+    fn a_forced_polynomial_is_the_complete_one_and_rebuilds_from_its_spec() {
+        let x = lhs(2, 12, 3);
+        let y: Vec<f64> = x.iter().map(|p| 1.0 + p[0] + 0.5 * p[0] * p[1]).collect();
+        let choice = choose(
+            ModelChoice::Polynomial { order: 2 },
+            BasisKind::Monomial,
+            &names(2),
+            &x,
+            &y,
+            &KrigingOptions::default(),
+        )
+        .unwrap();
+        assert_eq!(choice.candidates.len(), 1);
+        assert_eq!(choice.candidates[0].name, "quadratic, all 6 terms");
+        let again = Surrogate::rebuild(&choice.surrogate.spec(), &names(2), &x, &y).unwrap();
+        for p in &x {
+            assert_eq!(again.predict(p), choice.surrogate.predict(p));
+        }
+    }
+
+    #[test]
+    fn a_kriging_surrogate_rebuilds_from_its_spec_without_a_search() {
+        let x = lhs(2, 15, 4);
+        let y: Vec<f64> = x.iter().map(|p| (2.0 * p[0]).sin() + p[1]).collect();
+        let choice = choose(
+            ModelChoice::Kriging,
+            BasisKind::Legendre,
+            &names(2),
+            &x,
+            &y,
+            &KrigingOptions::default(),
+        )
+        .unwrap();
+        let again = Surrogate::rebuild(&choice.surrogate.spec(), &names(2), &x, &y).unwrap();
+        let probe = [0.31, -0.42];
+        assert!((again.predict(&probe) - choice.surrogate.predict(&probe)).abs() < 1e-9);
+        // Its prediction interval holds the surrogate's error and the nugget.
+        let interval = choice.surrogate.prediction_interval(&probe, 0.95).unwrap();
+        let mean_std = choice.surrogate.mean_std(&probe).unwrap();
+        assert!(interval.std_error >= mean_std);
+        assert!((interval.high - interval.estimate - 1.959964 * interval.std_error).abs() < 1e-5);
+    }
+
+    #[test]
+    fn too_few_runs_for_every_candidate_is_an_error_naming_each() {
+        let x = vec![vec![0.0, 0.0], vec![1.0, 0.0]];
+        let y = vec![1.0, 2.0];
+        let error = choose(
+            ModelChoice::Polynomial { order: 2 },
+            BasisKind::Legendre,
+            &names(2),
+            &x,
+            &y,
+            &KrigingOptions::default(),
+        )
+        .unwrap_err();
+        assert!(error.starts_with("no surrogate could be fitted (quadratic, all 6 terms: 2 runs cannot fit 6 terms"), "{error}");
+    }
+}

@@ -480,7 +480,8 @@ fn factorise(
             lo = lo.min(lg[(i, i)]);
             hi = hi.max(lg[(i, i)]);
         }
-        if !((hi / lo).powi(2) < 1e12) {
+        let estimate = (hi / lo).powi(2);
+        if estimate.is_nan() || estimate >= 1e12 {
             return Err(KrigingError::TrendNotEstimable { trend });
         }
     }
@@ -612,7 +613,7 @@ impl Kriging {
         };
         let factor = factorise(&points, k, &ys, kernel, trend, &inverse, ratio)?;
         let s2 = fixed_s2.unwrap_or_else(|| factor.quadratic_form() / n as f64);
-        if !(s2 > 0.0) {
+        if s2.is_nan() || s2 <= 0.0 {
             return Err(KrigingError::ConstantResponse {
                 runs: n,
                 value: y[0],
@@ -952,16 +953,14 @@ fn multistart_nelder_mead(
                 c
             })
             .collect();
-        for s in 0..others {
-            initial.push(
-                (0..d)
-                    .map(|j| {
-                        let u = (columns[j][s] as f64 + rng.random::<f64>()) / others as f64;
-                        start_lower[j] + u * (start_upper[j] - start_lower[j])
-                    })
-                    .collect(),
-            );
-        }
+        initial.extend((0..others).map(|s| {
+            (0..d)
+                .map(|j| {
+                    let u = (columns[j][s] as f64 + rng.random::<f64>()) / others as f64;
+                    start_lower[j] + u * (start_upper[j] - start_lower[j])
+                })
+                .collect::<Vec<f64>>()
+        }));
     }
     let step: Vec<f64> = (0..d).map(|j| (upper[j] - lower[j]) / 16.0).collect();
     let short = 25 * (d + 1);
@@ -1071,8 +1070,8 @@ pub(crate) fn nelder_mead(
             } else {
                 let best_x = simplex[0].0.clone();
                 for vertex in simplex.iter_mut().skip(1) {
-                    for j in 0..d {
-                        vertex.0[j] = best_x[j] + 0.5 * (vertex.0[j] - best_x[j]);
+                    for (v, b) in vertex.0.iter_mut().zip(&best_x) {
+                        *v = b + 0.5 * (*v - b);
                     }
                     vertex.1 = eval(&vertex.0);
                 }

@@ -25,7 +25,7 @@
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use crate::kriging::{nelder_mead, Kriging, KrigingOptions};
+use crate::kriging::{nelder_mead, Kriging, KrigingOptions, Stop};
 use crate::optimise::{BoxBounds, Goal};
 
 /// `1/√π`.
@@ -176,8 +176,11 @@ pub fn propose_batch(
                     &step,
                     &bounds.lower,
                     &bounds.upper,
-                    100 * (k + 1),
-                    1e-10,
+                    Stop {
+                        max_evaluations: 100 * (k + 1),
+                        f_tolerance: 1e-10,
+                        x_tolerance: 1e-10,
+                    },
                 )
             })
             .chain(std::iter::once(candidates[0].clone()))

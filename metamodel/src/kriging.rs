@@ -31,8 +31,8 @@
 //!
 //! The search is a bounded Nelder–Mead simplex in log space from several starts
 //! (the first at a default, the rest from a seeded Latin hypercube over a central part
-//! of the box). Every start gets a short budget; the best two are then restarted and
-//! run to convergence. Log length scales are bounded to `[10⁻², 10²]` coded units.
+//! of the box). Every start gets a short budget; the best (and the runner-up when it is
+//! within one log-likelihood unit) is then restarted and run to convergence. Log length scales are bounded to `[10⁻², 10²]` coded units.
 //!
 //! # Prediction
 //!
@@ -393,8 +393,10 @@ fn cholesky_with_jitter(k: &DMatrix<f64>) -> Result<(DMatrix<f64>, f64), Kriging
     let mut jitter = 0.0;
     loop {
         let mut m = k.clone();
-        for i in 0..n {
-            m[(i, i)] += jitter * scale;
+        if jitter > 0.0 {
+            for i in 0..n {
+                m[(i, i)] += jitter * scale;
+            }
         }
         let estimate = match Cholesky::new(m) {
             Some(c) => {
@@ -480,7 +482,8 @@ fn factorise(
             lo = lo.min(lg[(i, i)]);
             hi = hi.max(lg[(i, i)]);
         }
-        if !((hi / lo).powi(2) < 1e12) {
+        let estimate = (hi / lo).powi(2);
+        if estimate.is_nan() || estimate >= 1e12 {
             return Err(KrigingError::TrendNotEstimable { trend });
         }
     }
@@ -612,7 +615,7 @@ impl Kriging {
         };
         let factor = factorise(&points, k, &ys, kernel, trend, &inverse, ratio)?;
         let s2 = fixed_s2.unwrap_or_else(|| factor.quadratic_form() / n as f64);
-        if !(s2 > 0.0) {
+        if s2.is_nan() || s2 <= 0.0 {
             return Err(KrigingError::ConstantResponse {
                 runs: n,
                 value: y[0],
@@ -952,48 +955,71 @@ fn multistart_nelder_mead(
                 c
             })
             .collect();
-        for s in 0..others {
-            initial.push(
-                (0..d)
-                    .map(|j| {
-                        let u = (columns[j][s] as f64 + rng.random::<f64>()) / others as f64;
-                        start_lower[j] + u * (start_upper[j] - start_lower[j])
-                    })
-                    .collect(),
-            );
-        }
+        initial.extend((0..others).map(|s| {
+            (0..d)
+                .map(|j| {
+                    let u = (columns[j][s] as f64 + rng.random::<f64>()) / others as f64;
+                    start_lower[j] + u * (start_upper[j] - start_lower[j])
+                })
+                .collect::<Vec<f64>>()
+        }));
     }
     let step: Vec<f64> = (0..d).map(|j| (upper[j] - lower[j]) / 16.0).collect();
-    let short = 25 * (d + 1);
+    let short = Stop {
+        max_evaluations: 25 * (d + 1),
+        f_tolerance: 1e-6,
+        x_tolerance: 1e-3,
+    };
     let mut results: Vec<(Vec<f64>, f64)> = initial
         .iter()
-        .map(|s| nelder_mead(f, s, &step, lower, upper, short, 1e-6))
+        .map(|s| nelder_mead(f, s, &step, lower, upper, short))
         .collect();
     results.sort_by(|a, b| a.1.total_cmp(&b.1));
-    let long = 200 * (d + 1);
+    let long = Stop {
+        max_evaluations: 200 * (d + 1),
+        f_tolerance: 1e-10,
+        x_tolerance: 1e-5,
+    };
     let small_step: Vec<f64> = step.iter().map(|s| s * 0.5).collect();
+    // The runner-up is polished too when it is within one log-likelihood unit of the
+    // best, since it may still overtake it.
+    let contenders = 1 + usize::from(results.len() > 1 && results[1].1 - results[0].1 < 1.0);
     results
         .iter()
-        .take(2)
-        .map(|(x, _)| nelder_mead(f, x, &small_step, lower, upper, long, 1e-9))
+        .take(contenders)
+        .map(|(x, _)| nelder_mead(f, x, &small_step, lower, upper, long))
         .min_by(|a, b| a.1.total_cmp(&b.1))
         .map(|(x, _)| x)
         .expect("at least one start")
 }
 
+/// When a Nelder–Mead search stops.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Stop {
+    /// Most evaluations of the function.
+    pub max_evaluations: usize,
+    /// The simplex's values agree to this, relative to `1 + |best|`…
+    pub f_tolerance: f64,
+    /// …and its vertices to this per coordinate.
+    pub x_tolerance: f64,
+}
+
 /// Nelder–Mead simplex minimisation of `f` inside the box `[lower, upper]` (trial
-/// points are clamped into it) from `start` with initial steps `step`, for at most
-/// `max_evaluations`; stops when the simplex's values agree to `tolerance` (relative)
-/// and its vertices to `tolerance` per coordinate. Non-finite values count as +∞.
+/// points are clamped into it) from `start` with initial steps `step`, until `stop`.
+/// Non-finite values count as +∞.
 pub(crate) fn nelder_mead(
     f: &dyn Fn(&[f64]) -> f64,
     start: &[f64],
     step: &[f64],
     lower: &[f64],
     upper: &[f64],
-    max_evaluations: usize,
-    tolerance: f64,
+    stop: Stop,
 ) -> (Vec<f64>, f64) {
+    let Stop {
+        max_evaluations,
+        f_tolerance,
+        x_tolerance,
+    } = stop;
     let d = start.len();
     let clamp = |x: &mut Vec<f64>| {
         for j in 0..d {
@@ -1034,7 +1060,10 @@ pub(crate) fn nelder_mead(
             .flat_map(|i| (0..d).map(move |j| (i, j)))
             .map(|(i, j)| (simplex[i].0[j] - simplex[0].0[j]).abs())
             .fold(0.0, f64::max);
-        if best.is_finite() && spread_f <= tolerance * (1.0 + best.abs()) && spread_x <= tolerance {
+        if best.is_finite()
+            && spread_f <= f_tolerance * (1.0 + best.abs())
+            && spread_x <= x_tolerance
+        {
             break;
         }
         let centroid: Vec<f64> = (0..d)
@@ -1071,8 +1100,8 @@ pub(crate) fn nelder_mead(
             } else {
                 let best_x = simplex[0].0.clone();
                 for vertex in simplex.iter_mut().skip(1) {
-                    for j in 0..d {
-                        vertex.0[j] = best_x[j] + 0.5 * (vertex.0[j] - best_x[j]);
+                    for (v, b) in vertex.0.iter_mut().zip(&best_x) {
+                        *v = b + 0.5 * (*v - b);
                     }
                     vertex.1 = eval(&vertex.0);
                 }

@@ -269,6 +269,9 @@ mod tests {
         assert!((spread.q975 - 1.959964 * std).abs() / std < 0.01);
         // Without surrogate error it is exactly the input-only spread.
         let without = propagate_with_error(&|x: &[f64]| (3.0 * x[0], 0.0), &inputs, 1000, 11);
-        assert_eq!(without, propagate(&|x: &[f64]| 3.0 * x[0], &inputs, 1000, 11));
+        assert_eq!(
+            without,
+            propagate(&|x: &[f64]| 3.0 * x[0], &inputs, 1000, 11)
+        );
     }
 }

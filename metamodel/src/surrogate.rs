@@ -197,9 +197,7 @@ pub fn choose(
             .and(fitted[i].0.loo_rmse)
             .filter(|v| v.is_finite())
     };
-    let best = (0..fitted.len())
-        .filter_map(scored)
-        .min_by(f64::total_cmp);
+    let best = (0..fitted.len()).filter_map(scored).min_by(f64::total_cmp);
     let (chosen, by_prognosis) = match best {
         Some(best) => (
             (0..fitted.len())
@@ -221,12 +219,18 @@ pub fn choose(
                     .iter()
                     .map(|(c, _)| format!("{}: {}", c.name, c.note.clone().unwrap_or_default()))
                     .collect();
-                return Err(format!("no surrogate could be fitted ({})", reasons.join("; ")));
+                return Err(format!(
+                    "no surrogate could be fitted ({})",
+                    reasons.join("; ")
+                ));
             };
             (i, false)
         }
     };
-    let surrogate = fitted[chosen].1.clone().expect("the chosen candidate fitted");
+    let surrogate = fitted[chosen]
+        .1
+        .clone()
+        .expect("the chosen candidate fitted");
     Ok(Choice {
         surrogate,
         candidates: fitted.into_iter().map(|(c, _)| c).collect(),
@@ -284,7 +288,11 @@ fn kriging_quality(model: &Kriging, y: &[f64], parameters: usize) -> Quality {
     Quality {
         runs: n,
         terms: parameters,
-        r2: if ss_tot > 0.0 { 1.0 - ss_res / ss_tot } else { 1.0 },
+        r2: if ss_tot > 0.0 {
+            1.0 - ss_res / ss_tot
+        } else {
+            1.0
+        },
         adjusted_r2: None,
         residual_std: Some(model.noise_variance().sqrt()),
         loo_residuals: Some(loo),
@@ -620,6 +628,11 @@ mod tests {
             &KrigingOptions::default(),
         )
         .unwrap_err();
-        assert!(error.starts_with("no surrogate could be fitted (quadratic, all 6 terms: 2 runs cannot fit 6 terms"), "{error}");
+        assert!(
+            error.starts_with(
+                "no surrogate could be fitted (quadratic, all 6 terms: 2 runs cannot fit 6 terms"
+            ),
+            "{error}"
+        );
     }
 }

@@ -160,8 +160,17 @@ async fn analyse(
     for response in &responses {
         let observed = &data[response];
         let (x, y) = (&observed.design.0, &observed.design.1);
-        let choice = choose(study.metamodel.model, study.metamodel.basis, &names, x, y, &options);
-        fits.push(fit_record(response, basis_name, observed, choice, study.seed));
+        let choice = choose(
+            study.metamodel.model,
+            study.metamodel.basis,
+            &names,
+            x,
+            y,
+            &options,
+        );
+        fits.push(fit_record(
+            response, basis_name, observed, choice, study.seed,
+        ));
     }
 
     let mut record = RoundRecord {
@@ -266,7 +275,10 @@ async fn analyse(
             max: *max,
         })
         .collect();
-    let exact = objective.responses().iter().all(|r| surfaces[r].is_quadratic());
+    let exact = objective
+        .responses()
+        .iter()
+        .all(|r| surfaces[r].is_quadratic());
     let (optimum, feasible) = optimise_subject_to(
         &value,
         exact,
@@ -303,7 +315,8 @@ async fn analyse(
             }
             (value(&x), mean_std(&x).unwrap_or(0.0))
         };
-        record.uncertainty_total = propagate_with_error(&with_error, &inputs, u.samples, u.seed).ok();
+        record.uncertainty_total =
+            propagate_with_error(&with_error, &inputs, u.samples, u.seed).ok();
     }
     record.optimum_interval = prediction_interval(&optimum.x);
     let goal = match objective.goal {
@@ -356,10 +369,9 @@ async fn analyse(
             round + 1,
             study.rounds
         );
-    } else if let Some((_, _, before, _)) =
-        previous
-            .as_ref()
-            .filter(|p| converged(p.2, optimum.value, study.metamodel.tolerance))
+    } else if let Some((_, _, before, _)) = previous
+        .as_ref()
+        .filter(|p| converged(p.2, optimum.value, study.metamodel.tolerance))
     {
         record.decision = Decision::Converged;
         record.note = format!(
@@ -367,10 +379,9 @@ async fn analyse(
             optimum.value,
             study.metamodel.tolerance * 100.0
         );
-    } else if let Some(note) = previous
-        .as_ref()
-        .and_then(|(_, _, _, before)| unresolved_gain(before, &ranges, &optimum, objective.goal, &value, &mean_std))
-    {
+    } else if let Some(note) = previous.as_ref().and_then(|(_, _, _, before)| {
+        unresolved_gain(before, &ranges, &optimum, objective.goal, &value, &mean_std)
+    }) {
         record.decision = Decision::Converged;
         record.note = format!("{note}{constrained}");
     } else {
@@ -441,7 +452,9 @@ fn fit_record(
             loo_rmse: c.loo_rmse,
             chosen: i == choice.chosen,
             note: match (&c.note, i == choice.chosen && !choice.by_prognosis) {
-                (_, true) => Some("kept without a score: no candidate could be cross-validated".into()),
+                (_, true) => {
+                    Some("kept without a score: no candidate could be cross-validated".into())
+                }
                 (note, false) => note.clone(),
             },
         })

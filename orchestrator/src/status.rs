@@ -623,7 +623,9 @@ fn kriging_lines(fit: &StoredFit, factors: &[String]) -> String {
 fn choice_lines(fit: &StoredFit, factors: &[String]) -> String {
     let mut out = String::new();
     if fit.candidates.len() > 1 {
-        out.push_str("  model choice (smallest leave-one-out RMSE; a simpler one within 5 % preferred):\n");
+        out.push_str(
+            "  model choice (smallest leave-one-out RMSE; a simpler one within 5 % preferred):\n",
+        );
         for c in &fit.candidates {
             out.push_str(&format!(
                 "    {} {:<40} {:>3} parameters, leave-one-out RMSE {}{}\n",

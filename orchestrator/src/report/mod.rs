@@ -352,7 +352,11 @@ fn candidates_table(fit: &StoredFit, unit: &str) -> String {
                 escape(&c.model),
                 c.parameters.to_string(),
                 c.loo_rmse.map(number).unwrap_or_else(|| "–".into()),
-                if c.chosen { "chosen".into() } else { String::new() },
+                if c.chosen {
+                    "chosen".into()
+                } else {
+                    String::new()
+                },
                 escape(c.note.as_deref().unwrap_or("")),
             ]
         })

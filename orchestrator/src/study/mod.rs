@@ -906,7 +906,11 @@ impl Checker<'_> {
                 ModelChoice::Polynomial { order }
             }
             (Some(other), Some(_)) => {
-                let name = if other == ModelFile::Auto { "auto" } else { "kriging" };
+                let name = if other == ModelFile::Auto {
+                    "auto"
+                } else {
+                    "kriging"
+                };
                 return Err(self.error(
                     "metamodel.order",
                     format!("`order` sets the polynomial of `model: polynomial`; `model: {name}` chooses its own (remove `order`, or write `model: polynomial`)"),

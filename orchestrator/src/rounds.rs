@@ -712,4 +712,136 @@ objective:
             .unwrap_or_else(|| panic!("{note}"));
         assert!(reached.parse::<f64>().unwrap().abs() < 1e-3, "{note}");
     }
+
+    /// Three centre replicates (pure error), an uncertain amplitude, no bounds.
+    const REPLICATED: &str = "\
+name: replicated
+solver: liggghts
+factors:
+  - {name: outlet_diameter, min: 0.020, max: 0.028}
+  - {name: amplitude, min: 0.0, max: 0.0008}
+design: {type: central_composite, alpha: face_centred, center_points: 3}
+objective: {response: discharge_rate, goal: maximise}
+uncertainty:
+  samples: 20000
+  seed: 5
+  parameters: [{name: amplitude, distribution: normal, mean: 0.0004, std: 0.0001}]
+";
+
+    #[tokio::test]
+    async fn a_round_keeps_its_model_choice_lack_of_fit_sobol_indices_and_honest_bounds() {
+        // rate = 0.75 + x0 − x0² − x1² plus scatter of ±0.01: in Legendre terms
+        // P1(x0) − ⅔P2(x0) − ⅔P2(x1), whose Sobol indices over the box are exactly
+        // S(x0) = (1/3 + 4/45) / (23/45) = 19/23 and S(x1) = 4/23 (no interaction).
+        let scatter = [
+            0.01, -0.01, 0.005, -0.005, 0.0, 0.008, -0.008, 0.003, -0.003, 0.006, -0.006,
+        ];
+        let run = testing::round_run(REPLICATED, |coded, k| JobResults {
+            responses: vec![(
+                "discharge_rate".into(),
+                1.0 - (coded[0] - 0.5).powi(2) - coded[1].powi(2) + scatter[k % scatter.len()],
+            )],
+            series: vec![],
+            note: None,
+        })
+        .await;
+        let (store, id) = (&run.store, run.id);
+        advance(store, id, &run.study, &run.runs_dir())
+            .await
+            .unwrap();
+        let round = &store.rounds(id).await.unwrap()[0];
+        let fit = &round.fits[0];
+
+        // Four candidates, one chosen: a quadratic on a quadratic.
+        assert_eq!(fit.candidates.len(), 4, "{:?}", fit.candidates);
+        assert_eq!(fit.candidates.iter().filter(|c| c.chosen).count(), 1);
+        let model = fit.model.as_deref().unwrap();
+        assert!(model.starts_with("quadratic"), "{model}");
+        assert!(fit.candidates[3].model.starts_with("kriging"));
+        // The stored spec rebuilds the same surface from the stored runs.
+        let runs = surfaces::design_runs(store, id).await.unwrap();
+        let observed = surfaces::observed(&runs[&0], "discharge_rate");
+        let names = ["outlet_diameter".to_string(), "amplitude".to_string()];
+        let rebuilt = surfaces::refit(fit, &names, &observed).unwrap();
+        let press = rebuilt.quality().press.unwrap();
+        assert!((press - fit.press.unwrap()).abs() <= 1e-12 * press.max(1.0));
+
+        // Three centre replicates give 2 pure-error degrees of freedom.
+        let lack_of_fit = fit.lack_of_fit.unwrap();
+        assert_eq!(lack_of_fit.pure_error_dof, 2);
+        assert!(lack_of_fit.p > 0.05, "{lack_of_fit:?}");
+
+        // Exact Sobol indices of the Legendre surface, close to the analytic ones.
+        assert_eq!(fit.sensitivities.len(), 2);
+        assert_eq!(fit.sensitivities[0].method, "analytic");
+        assert!(
+            (fit.sensitivities[0].first.0 - 19.0 / 23.0).abs() < 0.02,
+            "{:?}",
+            fit.sensitivities
+        );
+        assert!(
+            (fit.sensitivities[1].total.0 - 4.0 / 23.0).abs() < 0.02,
+            "{:?}",
+            fit.sensitivities
+        );
+
+        // The optimum's prediction interval holds its value; the spread with the
+        // surrogate's error is wider than the input-only one.
+        let value = round.optimum.as_ref().unwrap().2;
+        let (low, high) = round.optimum_interval.unwrap();
+        assert!(
+            low < value && value < high && high - low < 0.2,
+            "[{low}, {high}] around {value}"
+        );
+        let (inputs, total) = (round.uncertainty.unwrap(), round.uncertainty_total.unwrap());
+        assert!(total.std > inputs.std, "{total:?} vs {inputs:?}");
+        // At a maximum the input spread cannot push the rate above it; only the
+        // surrogate's error can.
+        assert!(total.q975 > inputs.q975, "{total:?} vs {inputs:?}");
+    }
+
+    #[test]
+    fn a_gain_within_the_surrogates_own_interval_stops_the_rounds() {
+        // value = −(x − 0.2)²; the previous optimum at x = 0 (natural 10 in [0, 20]
+        // coded 0) is worse by 0.04 than the new one at x = 0.2.
+        let value = |x: &[f64]| -(x[0] - 0.2).powi(2);
+        let optimum = orch_metamodel::Optimum {
+            x: vec![0.2],
+            value: 0.0,
+            exact: true,
+        };
+        let ranges = [FactorRange {
+            min: 0.0,
+            max: 20.0,
+        }];
+        // A standard error of 0.05 makes ±0.098: the gain of 0.04 is noise.
+        let note = unresolved_gain(&[10.0], &ranges, &optimum, Goal::Maximise, &value, &|_| {
+            Some(0.05)
+        });
+        assert!(note
+            .unwrap()
+            .contains("within its own 95 % interval (±0.097998)"));
+        // A standard error of 0.01 (±0.0196) resolves it: go on.
+        assert!(
+            unresolved_gain(&[10.0], &ranges, &optimum, Goal::Maximise, &value, &|_| {
+                Some(0.01)
+            })
+            .is_none()
+        );
+        // Minimising the negative is the same question.
+        let negative = |x: &[f64]| -value(x);
+        let minimum = orch_metamodel::Optimum {
+            value: 0.0,
+            ..optimum
+        };
+        assert!(unresolved_gain(
+            &[10.0],
+            &ranges,
+            &minimum,
+            Goal::Minimise,
+            &negative,
+            &|_| Some(0.05)
+        )
+        .is_some());
+    }
 }

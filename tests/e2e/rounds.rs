@@ -94,7 +94,9 @@ fn two_rounds_zoom_in_around_the_first_optimum_and_status_shows_the_metamodel() 
     let fits = project.run(&["fit", "discharge-two-rounds", "--round", "0"]);
     let fits = text(&fits.stdout);
     assert!(
-        fits.starts_with("round 0, discharge_rate (legendre basis, order 2, 15 runs)\n"),
+        fits.starts_with(
+            "round 0, discharge_rate (quadratic, all 15 terms, legendre basis, 15 runs)\n"
+        ),
         "{fits}"
     );
     assert!(fits.contains("P1(outlet_diameter)*P1(amplitude)"), "{fits}");

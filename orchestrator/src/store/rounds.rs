@@ -102,6 +102,9 @@ pub struct RoundRecord {
     pub next: Option<(Vec<FactorRange>, Vec<DesignPoint>, Vec<DesignPoint>)>,
 }
 
+/// An optimum's row: response, goal, value and its prediction interval's ends.
+type OptimumRow = (String, String, f64, Option<f64>, Option<f64>);
+
 /// A stored fit.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct StoredFit {
@@ -497,7 +500,7 @@ impl Store {
                     terms,
                 });
             }
-            let optimum: Option<(String, String, f64, Option<f64>, Option<f64>)> = sqlx::query_as(
+            let optimum: Option<OptimumRow> = sqlx::query_as(
                 "SELECT response, goal, value, interval_low, interval_high FROM optima WHERE study_id = ? AND round = ?",
             )
             .bind(study_id)

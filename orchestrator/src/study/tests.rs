@@ -386,3 +386,33 @@ fn a_full_factorial_grid_with_an_objective_gets_off_grid_test_points_unless_told
         0
     );
 }
+
+#[test]
+fn the_metamodel_is_chosen_automatically_unless_a_model_or_an_order_is_given() {
+    let with = |section: &str| load(&format!("{VALID}metamodel: {section}\n"));
+    assert_eq!(load(VALID).unwrap().metamodel.model, ModelChoice::Auto);
+    assert_eq!(
+        with("{order: 3}").unwrap().metamodel.model,
+        ModelChoice::Polynomial { order: 3 }
+    );
+    assert_eq!(
+        with("{model: polynomial}").unwrap().metamodel.model,
+        ModelChoice::Polynomial { order: 2 }
+    );
+    let kriging = with("{model: kriging, kernel: squared_exponential, trend: linear}").unwrap();
+    assert_eq!(kriging.metamodel.model, ModelChoice::Kriging);
+    assert_eq!(kriging.metamodel.kernel, Kernel::SquaredExponential);
+    assert_eq!(kriging.metamodel.trend, Trend::Linear);
+    assert_eq!(
+        error(&format!("{VALID}metamodel: {{model: auto, order: 2}}\n")),
+        "jobs/study.yaml:18:33: metamodel.order: `order` sets the polynomial of `model: polynomial`; `model: auto` chooses its own (remove `order`, or write `model: polynomial`)"
+    );
+    assert_eq!(
+        error(&format!(
+            "{VALID}metamodel: {{model: polynomial, order: 4}}\n"
+        )),
+        "jobs/study.yaml:18:39: metamodel.order: expected an order of 1, 2 or 3, got 4"
+    );
+    assert!(error(&format!("{VALID}metamodel: {{model: spline}}\n"))
+        .contains("metamodel.model: unknown variant `spline`, expected one of `auto`, `polynomial`, `kriging`"));
+}

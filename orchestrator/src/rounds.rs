@@ -20,7 +20,7 @@ use orch_metamodel::{
 use crate::store::{
     CandidateScore, Decision, FitRecord, JobState, LackOfFitRow, RoundRecord, Store, StoreError,
 };
-use crate::study::{DesignPoint, Objective, Study};
+use crate::study::{mean_of, DesignPoint, Objective, Study};
 use crate::surfaces;
 
 /// What happened after a round.
@@ -506,14 +506,6 @@ fn unresolved_gain(
             "the surface predicts the new optimum better than the previous round's by {gain:.6}, within its own 95 % interval (±{half_width:.6}); another round would chase noise"
         )
     })
-}
-
-fn mean_of(distribution: &Distribution) -> f64 {
-    match *distribution {
-        Distribution::Normal { mean, .. } => mean,
-        Distribution::Uniform { low, high } => 0.5 * (low + high),
-        Distribution::LogNormal { mu, sigma } => (mu + 0.5 * sigma * sigma).exp(),
-    }
 }
 
 /// Test support: a study stored from `text` whose round-0 jobs all succeeded with the

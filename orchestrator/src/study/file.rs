@@ -377,8 +377,31 @@ pub struct UncertaintyFile {
     /// Seed of the sampler.
     #[serde(default)]
     pub seed: u64,
-    /// The uncertain parameters; each must be a factor of the study.
+    /// The uncertain parameters: factors held at their mean while optimising (with
+    /// `mean`), factors with a manufacturing tolerance (normal, `std` only), and
+    /// parameters that are not factors (materials), which the noise design varies.
     pub parameters: Vec<UncertainParameterFile>,
+    /// The design run around the optimum after the rounds over the materials and
+    /// tolerances (default: central composite, orthogonal α, one centre point, on
+    /// ±3 standard deviations).
+    #[serde(default)]
+    pub noise_design: Option<NoiseDesignFile>,
+}
+
+/// The `uncertainty.noise_design:` section.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NoiseDesignFile {
+    /// The design (as `design:`; default central composite, orthogonal α, one centre).
+    #[serde(default)]
+    pub design: Option<DesignFile>,
+    /// How many standard deviations either side of the mean it spans (default 3).
+    #[serde(default = "three")]
+    pub half_width: f64,
+}
+
+fn three() -> f64 {
+    3.0
 }
 
 fn hundred_thousand() -> usize {
@@ -401,7 +424,7 @@ pub enum DistributionFile {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct UncertainParameterFile {
-    /// A factor's name.
+    /// A factor's or a template parameter's name.
     pub name: String,
     /// Distribution family.
     pub distribution: DistributionFile,

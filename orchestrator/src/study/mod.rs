@@ -166,8 +166,85 @@ pub struct UncertaintyConfig {
     pub samples: usize,
     /// Seed.
     pub seed: u64,
-    /// `(factor index, distribution in natural units)`.
+    /// Factors held at their mean while optimising: `(factor index, distribution in
+    /// natural units)`.
     pub parameters: Vec<(usize, Distribution)>,
+    /// The design over materials and tolerances run around the optimum, if any.
+    pub noise: Option<NoiseDesign>,
+}
+
+/// A design over uncertain parameters, run around the optimum after the rounds as a
+/// study of its own (`<study>-noise`), whose surrogates carry the distributions to the
+/// bounds of the responses there.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NoiseDesign {
+    /// Parameters that are not factors, with their distributions.
+    pub materials: Vec<Material>,
+    /// Factors with a manufacturing tolerance: `(factor index, standard deviation in
+    /// natural units)`, normal around the optimum.
+    pub tolerances: Vec<(usize, f64)>,
+    /// The design over the materials and tolerances (in that order; default a
+    /// central composite with orthogonal α and one centre point, or 5 levels of one).
+    pub design: DesignKind,
+    /// Standard deviations either side of the mean the design spans.
+    pub half_width: f64,
+    /// Its runs (points).
+    pub runs: usize,
+}
+
+/// An uncertain parameter that is not a design factor (a material property).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Material {
+    /// The template parameter.
+    pub name: String,
+    /// Its distribution in natural units.
+    pub distribution: Distribution,
+    /// Its unit.
+    pub unit: String,
+}
+
+/// The range a noise design spans for `distribution`: `mean ± half_width·std` for a
+/// normal, the support of a uniform, `exp(mu ± half_width·sigma)` for a log-normal.
+pub fn noise_range(distribution: &Distribution, half_width: f64) -> (f64, f64) {
+    match *distribution {
+        Distribution::Normal { mean, std } => (mean - half_width * std, mean + half_width * std),
+        Distribution::Uniform { low, high } => (low, high),
+        Distribution::LogNormal { mu, sigma } => (
+            (mu - half_width * sigma).exp(),
+            (mu + half_width * sigma).exp(),
+        ),
+    }
+}
+
+/// A parameter's allowed range and unit: `(min, max, unit)`.
+type ParameterRange = (f64, f64, String);
+
+/// `v` to six significant digits, without trailing zeros.
+fn short(v: f64) -> String {
+    let text = format!(
+        "{:.*}",
+        5usize.saturating_sub(v.abs().log10().floor().max(-10.0) as usize),
+        v
+    );
+    let text = if text.contains('.') {
+        text.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        text
+    };
+    if text == "-0" {
+        "0".into()
+    } else {
+        text
+    }
+}
+
+/// The mean of `distribution`.
+pub fn mean_of(distribution: &Distribution) -> f64 {
+    match *distribution {
+        Distribution::Normal { mean, .. } => mean,
+        Distribution::Uniform { low, high } => 0.5 * (low + high),
+        Distribution::LogNormal { mu, sigma } => (mu + 0.5 * sigma * sigma).exp(),
+    }
 }
 
 /// A validated study: everything needed to create and run its jobs.
@@ -802,7 +879,7 @@ impl Checker<'_> {
                 ),
             ));
         }
-        let design_kind = self.design_kind(&file.design, file.seed)?;
+        let design_kind = self.design_kind("design", &file.design, file.seed)?;
         let design = Design::build(&design_kind, factors.len())
             .map_err(|e| self.error("design", e.to_string()))?;
         let points: Vec<DesignPoint> = design
@@ -958,7 +1035,23 @@ impl Checker<'_> {
         }
         let uncertainty = match &file.uncertainty {
             None => None,
-            Some(u) => Some(self.uncertainty(u, &factors)?),
+            Some(u) => {
+                let known = |name: &str| -> Option<ParameterRange> {
+                    match spec_of(name) {
+                        Some(spec) => Some((spec.min, spec.max, spec.unit.to_string())),
+                        None if custom_template => {
+                            Some((f64::NEG_INFINITY, f64::INFINITY, String::new()))
+                        }
+                        None => None,
+                    }
+                };
+                let config = self.uncertainty(u, &factors, &known, &file.fixed, file.seed)?;
+                // Materials are rendered at their mean while the design is optimised.
+                for material in config.noise.iter().flat_map(|n| &n.materials) {
+                    fixed.insert(material.name.clone(), mean_of(&material.distribution));
+                }
+                Some(config)
+            }
         };
         self.check_job_count(
             points.len(),
@@ -1080,6 +1173,9 @@ impl Checker<'_> {
         &self,
         file: &file::UncertaintyFile,
         factors: &[Factor],
+        known: &dyn Fn(&str) -> Option<ParameterRange>,
+        fixed: &BTreeMap<String, FixedValue>,
+        study_seed: u64,
     ) -> Result<UncertaintyConfig, StudyError> {
         if file.samples < 100 {
             return Err(self.error(
@@ -1096,15 +1192,40 @@ impl Checker<'_> {
                 ),
             ));
         }
+        let half_width = file.noise_design.as_ref().map_or(3.0, |n| n.half_width);
+        if !(half_width.is_finite() && half_width > 0.0 && half_width <= 10.0) {
+            return Err(self.error(
+                "uncertainty.noise_design.half_width",
+                format!("expected a number of standard deviations in (0, 10], got {half_width}"),
+            ));
+        }
         let mut parameters = Vec::new();
+        let mut materials = Vec::new();
+        let mut tolerances = Vec::new();
         for (i, p) in file.parameters.iter().enumerate() {
             let at = |field: &str| format!("uncertainty.parameters[{i}].{field}");
-            let Some(index) = factors.iter().position(|f| f.name == p.name) else {
-                return Err(self.error(
-                    &at("name"),
-                    format!("`{}` must be a factor of the study: the Monte Carlo runs through the design surface; add it to `factors:` with a range covering its distribution", p.name),
-                ));
-            };
+            if file.parameters[..i].iter().any(|q| q.name == p.name) {
+                return Err(self.error(&at("name"), format!("`{}` is listed twice", p.name)));
+            }
+            let factor = factors.iter().position(|f| f.name == p.name);
+            // A factor with a normal spread and no mean: a tolerance around the optimum.
+            if let (Some(index), DistributionFile::Normal, None) = (factor, p.distribution, p.mean)
+            {
+                let std = p.std.ok_or_else(|| {
+                    self.error(
+                        &at("std"),
+                        "a tolerance (a factor without `mean:`) needs `std:`",
+                    )
+                })?;
+                if !(std.is_finite() && std > 0.0) {
+                    return Err(self.error(
+                        &at("std"),
+                        format!("std must be positive and finite, got {std}"),
+                    ));
+                }
+                tolerances.push((index, std));
+                continue;
+            }
             let need = |value: Option<f64>, field: &str| {
                 value.ok_or_else(|| {
                     self.error(
@@ -1134,38 +1255,117 @@ impl Checker<'_> {
                     e.to_string().trim_start_matches("input 0: ").to_string(),
                 )
             })?;
-            parameters.push((index, distribution));
+            if let Some(index) = factor {
+                parameters.push((index, distribution));
+                continue;
+            }
+            // Not a factor: a material the noise design varies around the optimum.
+            let Some((min, max, unit)) = known(&p.name) else {
+                return Err(self.error(
+                    &at("name"),
+                    format!("`{}` is neither a factor nor a parameter of the equipment; name a factor (held at its mean while optimising, or with `std:` only, a tolerance) or a parameter (varied by the noise design around the optimum)", p.name),
+                ));
+            };
+            if fixed.contains_key(&p.name) {
+                return Err(self.error(
+                    &at("name"),
+                    format!("`{}` is both fixed and uncertain; remove it from `fixed:` (its mean is its value while the design is optimised)", p.name),
+                ));
+            }
+            let (low, high) = noise_range(&distribution, half_width);
+            if low < min || high > max {
+                return Err(self.error(
+                    &at("name"),
+                    format!(
+                        "the noise design would run `{}` over [{}, {}]{}, outside its range [{min}, {max}]; narrow the distribution or `noise_design.half_width`",
+                        p.name,
+                        short(low),
+                        short(high),
+                        if unit.is_empty() || unit == "-" { String::new() } else { format!(" {unit}") }
+                    ),
+                ));
+            }
+            materials.push(Material {
+                name: p.name.clone(),
+                distribution,
+                unit,
+            });
         }
-        if parameters.is_empty() {
+        if file.parameters.is_empty() {
             return Err(self.error(
                 "uncertainty.parameters",
                 "expected at least one uncertain parameter",
             ));
         }
+        let noise = if materials.is_empty() && tolerances.is_empty() {
+            if file.noise_design.is_some() {
+                return Err(self.error(
+                    "uncertainty.noise_design",
+                    "a noise design varies parameters that are not factors, or factors' tolerances (`std:` without `mean:`); the study has neither",
+                ));
+            }
+            None
+        } else {
+            let at = "uncertainty.noise_design.design";
+            let design = match file.noise_design.as_ref().and_then(|n| n.design.as_ref()) {
+                Some(design) => self.design_kind(at, design, study_seed)?,
+                None if materials.len() + tolerances.len() == 1 => {
+                    DesignKind::FullFactorial { levels: 5 }
+                }
+                None => DesignKind::CentralComposite {
+                    alpha: CentralCompositeAlpha::Orthogonal,
+                    center_points: 1,
+                },
+            };
+            let dimensions = materials.len() + tolerances.len();
+            let runs = Design::build(&design, dimensions)
+                .map_err(|e| {
+                    self.error(
+                        at,
+                        format!("{e} (over the {dimensions} uncertain parameters)"),
+                    )
+                })?
+                .len();
+            Some(NoiseDesign {
+                materials,
+                tolerances,
+                design,
+                half_width,
+                runs,
+            })
+        };
         Ok(UncertaintyConfig {
             samples: file.samples,
             seed: file.seed,
             parameters,
+            noise,
         })
     }
 
     /// A design's centre points (default 1), at most [`MAX_RUNS`].
-    fn center_points(&self, design: &DesignFile) -> Result<usize, StudyError> {
+    fn center_points(&self, at: &str, design: &DesignFile) -> Result<usize, StudyError> {
         let centre = design.center_points.unwrap_or(1);
         if centre > MAX_RUNS {
             return Err(self.error(
-                "design.center_points",
+                &format!("{at}.center_points"),
                 format!("expected at most {MAX_RUNS} centre points, got {centre}"),
             ));
         }
         Ok(centre)
     }
 
-    fn design_kind(&self, design: &DesignFile, study_seed: u64) -> Result<DesignKind, StudyError> {
+    /// The design `design` describes; `at` is its field path (`design`, or a noise
+    /// design's) for errors.
+    fn design_kind(
+        &self,
+        at: &str,
+        design: &DesignFile,
+        study_seed: u64,
+    ) -> Result<DesignKind, StudyError> {
         let refuse = |field: &str, present: bool, kind: &str| {
             if present {
                 Err(self.error(
-                    &format!("design.{field}"),
+                    &format!("{at}.{field}"),
                     format!("`{field}` does not apply to a {kind} design"),
                 ))
             } else {
@@ -1196,7 +1396,7 @@ impl Checker<'_> {
                         AlphaFile::Rotatable => CentralCompositeAlpha::Rotatable,
                         AlphaFile::FaceCentred => CentralCompositeAlpha::FaceCentred,
                     },
-                    center_points: self.center_points(design)?,
+                    center_points: self.center_points(at, design)?,
                 }
             }
             DesignType::BoxBehnken => {
@@ -1205,7 +1405,7 @@ impl Checker<'_> {
                 refuse("samples", design.samples.is_some(), "box_behnken")?;
                 refuse("seed", design.seed.is_some(), "box_behnken")?;
                 DesignKind::BoxBehnken {
-                    center_points: self.center_points(design)?,
+                    center_points: self.center_points(at, design)?,
                 }
             }
             DesignType::LatinHypercube => {
@@ -1218,7 +1418,7 @@ impl Checker<'_> {
                 )?;
                 let samples = design.samples.ok_or_else(|| {
                     self.error(
-                        "design",
+                        at,
                         "a latin_hypercube design needs `samples:` (number of runs)",
                     )
                 })?;

@@ -195,8 +195,8 @@ fn objectives_name_their_responses_and_need_one_form() {
         "jobs/study.yaml:18:9: rounds: more than one round needs an `objective:` to move the box towards"
     );
     assert_eq!(
-        error(&with("uncertainty: {parameters: [{name: density, distribution: normal, mean: 2500, std: 100}]}\n")),
-        "jobs/study.yaml:18:35: uncertainty.parameters[0].name: `density` must be a factor of the study: the Monte Carlo runs through the design surface; add it to `factors:` with a range covering its distribution"
+        error(&with("uncertainty: {parameters: [{name: densty, distribution: normal, mean: 2500, std: 100}]}\n")),
+        "jobs/study.yaml:18:35: uncertainty.parameters[0].name: `densty` is neither a factor nor a parameter of the equipment; name a factor (held at its mean while optimising, or with `std:` only, a tolerance) or a parameter (varied by the noise design around the optimum)"
     );
 }
 
@@ -415,4 +415,41 @@ fn the_metamodel_is_chosen_automatically_unless_a_model_or_an_order_is_given() {
     );
     assert!(error(&format!("{VALID}metamodel: {{model: spline}}\n"))
         .contains("metamodel.model: unknown variant `spline`, expected one of `auto`, `polynomial`, `kriging`"));
+}
+
+#[test]
+fn materials_and_tolerances_make_a_noise_design_around_the_optimum() {
+    let objective = "objective: {response: discharge_rate, goal: maximise}\n";
+    let with = |uncertainty: &str| load(&format!("{VALID}{objective}uncertainty: {uncertainty}\n"));
+    // Density is no factor: a material, rendered at its mean while optimising; the
+    // valve gap without a mean is a tolerance around the optimum.
+    let study = with("{parameters: [{name: density, distribution: normal, mean: 2400, std: 96}, {name: valve_gap, distribution: normal, std: 0.0005}]}").unwrap();
+    let noise = study.uncertainty.as_ref().unwrap().noise.as_ref().unwrap();
+    assert_eq!(noise.materials.len(), 1);
+    assert_eq!(noise.tolerances, [(2, 0.0005)]);
+    assert_eq!(noise.half_width, 3.0);
+    // Two dimensions: a central composite design with one centre point, 9 runs.
+    assert_eq!(noise.runs, 9);
+    assert_eq!(study.fixed["density"], 2400.0);
+    assert!(study.uncertainty.as_ref().unwrap().parameters.is_empty());
+    // One material alone gets a 5-level sweep.
+    let one =
+        with("{parameters: [{name: density, distribution: normal, mean: 2400, std: 96}]}").unwrap();
+    assert_eq!(one.uncertainty.unwrap().noise.unwrap().runs, 5);
+    // The given design, its half-width, and what is refused.
+    let ccd = with("{parameters: [{name: density, distribution: normal, mean: 2400, std: 96}, {name: restitution, distribution: normal, mean: 0.6, std: 0.03}], noise_design: {design: {type: full_factorial, levels: 3}, half_width: 2}}").unwrap();
+    let noise = ccd.uncertainty.unwrap().noise.unwrap();
+    assert_eq!((noise.runs, noise.half_width), (9, 2.0));
+    assert_eq!(
+        error(&format!("{VALID}{objective}fixed2: 1\n").replace("fixed2: 1\n", "uncertainty: {parameters: [{name: restitution, distribution: normal, mean: 0.6, std: 0.25}]}\n")),
+        "jobs/study.yaml:19:35: uncertainty.parameters[0].name: the noise design would run `restitution` over [-0.15, 1.35], outside its range [0.01, 1]; narrow the distribution or `noise_design.half_width`"
+    );
+    assert_eq!(
+        error(&format!("{VALID}{objective}uncertainty: {{parameters: [{{name: valve_diameter, distribution: normal, mean: 0.012, std: 0.0001}}]}}\n")),
+        "jobs/study.yaml:19:35: uncertainty.parameters[0].name: `valve_diameter` is both fixed and uncertain; remove it from `fixed:` (its mean is its value while the design is optimised)"
+    );
+    assert_eq!(
+        error(&format!("{VALID}{objective}uncertainty: {{parameters: [{{name: frequency, distribution: normal, mean: 30, std: 1}}], noise_design: {{half_width: 2}}}}\n")),
+        "jobs/study.yaml:19:102: uncertainty.noise_design: a noise design varies parameters that are not factors, or factors' tolerances (`std:` without `mean:`); the study has neither"
+    );
 }

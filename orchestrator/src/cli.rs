@@ -733,14 +733,75 @@ async fn drive(store: &Store, row: &StudyRow, study: &Study) -> anyhow::Result<i
         summary.unfinished,
         study.name
     );
-    if summary.ending == Ending::Finished {
-        conclude(store, row, study).await;
-    }
-    Ok(match summary.ending {
+    let mut code = match summary.ending {
         Ending::Interrupted => exit_codes::INTERRUPTED,
         Ending::Finished if summary.failed == 0 => exit_codes::SUCCESS,
         _ => exit_codes::JOBS_FAILED,
-    })
+    };
+    if summary.ending == Ending::Finished {
+        match drive_noise_design(store, row, study).await? {
+            Some(exit_codes::INTERRUPTED) => return Ok(exit_codes::INTERRUPTED),
+            Some(exit_codes::SUCCESS) | None => {}
+            Some(_) => code = exit_codes::JOBS_FAILED,
+        }
+        conclude(store, row, study).await;
+    }
+    Ok(code)
+}
+
+/// The noise design after the rounds, when the study has one: its study is written
+/// around the optimum (see [`crate::noise`]), stored or found again, and driven like
+/// any other; its exit code, or `None` when there is none to run.
+async fn drive_noise_design(
+    store: &Store,
+    row: &StudyRow,
+    study: &Study,
+) -> anyhow::Result<Option<i32>> {
+    let child = match crate::noise::study_of(store, row, study).await? {
+        None => return Ok(None),
+        Some(Err(why)) => {
+            errln!("orch: the noise design cannot run: {why}");
+            return Ok(Some(exit_codes::JOBS_FAILED));
+        }
+        Some(Ok(child)) => child,
+    };
+    match store.study_by_name(&child.name).await? {
+        Some(existing) if existing.file_sha256 == child.file_sha256 => {
+            claim_and_reopen(store, &existing, false).await?;
+        }
+        Some(_) => {
+            return Err(input_error(format!(
+                "the noise design of `{}` would be stored as `{}`, but a different study has that name; remove it with `orch delete {}` and submit again",
+                row.name, child.name, child.name
+            )))
+        }
+        None => {
+            let project = store.path().parent().unwrap_or(Path::new("."));
+            store
+                .insert_study(
+                    &child,
+                    Path::new(&row.file_path),
+                    &project.join(project::RUNS_DIR_NAME),
+                )
+                .await?;
+            errln!(
+                "orch: the noise design around the optimum: study `{}`, {} jobs over {}",
+                child.name,
+                child.job_count(),
+                child
+                    .factors
+                    .iter()
+                    .map(|f| f.name.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            );
+        }
+    }
+    let child_row = store
+        .study_by_name(&child.name)
+        .await?
+        .context("the noise design's study vanished from the store")?;
+    Ok(Some(Box::pin(drive(store, &child_row, &child)).await?))
 }
 
 /// The end of a finished study: the recommended design with its bounds and warnings,
@@ -761,6 +822,15 @@ async fn conclude(store: &Store, row: &StudyRow, study: &Study) {
         }
         Ok(None) => {}
         Err(e) => errln!("orch: cannot read the study's optimum back: {e:#}"),
+    }
+    match crate::noise::summary(store, &row.name).await {
+        Ok(Some(noise)) => {
+            if let Some(line) = noise.line() {
+                errln!("orch:   {line}");
+            }
+        }
+        Ok(None) => {}
+        Err(e) => errln!("orch: cannot read the noise design back: {e:#}"),
     }
     let path = store
         .path()
@@ -886,25 +956,32 @@ async fn stored_study(store: &Store, row: &StudyRow) -> anyhow::Result<Result<St
     }))
 }
 
-/// `orch delete`: the study's records and run directories, unless it is running.
+/// `orch delete`: the study's records and run directories, and its noise design's,
+/// unless one is running.
 async fn delete(project_dir: Option<&Path>, name: &str) -> anyhow::Result<i32> {
     let (store, row) = find(project_dir, name).await?;
-    store.delete_study(&row, process::is_alive).await?;
-    let runs = store
-        .path()
-        .parent()
-        .unwrap_or(Path::new("."))
-        .join(project::RUNS_DIR_NAME)
-        .join(&row.name);
-    if runs.exists() {
-        std::fs::remove_dir_all(&runs).with_context(|| {
-            format!(
-                "the study's records are deleted, but not its runs in {}",
-                runs.display()
-            )
-        })?;
+    let mut rows = vec![row];
+    if let Some(noise) = crate::noise::stored_row(&store, name).await? {
+        rows.insert(0, noise);
     }
-    errln!("orch: deleted study `{name}` and its runs");
+    for row in &rows {
+        store.delete_study(row, process::is_alive).await?;
+        let runs = store
+            .path()
+            .parent()
+            .unwrap_or(Path::new("."))
+            .join(project::RUNS_DIR_NAME)
+            .join(&row.name);
+        if runs.exists() {
+            std::fs::remove_dir_all(&runs).with_context(|| {
+                format!(
+                    "the study's records are deleted, but not its runs in {}",
+                    runs.display()
+                )
+            })?;
+        }
+        errln!("orch: deleted study `{}` and its runs", row.name);
+    }
     Ok(exit_codes::SUCCESS)
 }
 

@@ -13,6 +13,7 @@ pub mod driver;
 pub mod executor;
 pub mod exit_codes;
 pub mod export;
+pub mod noise;
 pub mod output;
 pub mod progress;
 pub mod project;

@@ -295,7 +295,13 @@ async fn analyse(
         .collect();
     let objective_name = objective.name();
 
-    if let Some(u) = &study.uncertainty {
+    // Factors held at their mean are sampled here; materials and tolerances have a
+    // noise design of their own after the rounds.
+    if let Some(u) = study
+        .uncertainty
+        .as_ref()
+        .filter(|u| !u.parameters.is_empty())
+    {
         let inputs: Vec<Distribution> = u.parameters.iter().map(|(_, d)| *d).collect();
         let at_optimum = |sample: &[f64]| {
             let mut x = optimum.x.clone();

@@ -74,6 +74,8 @@ pub struct StudyDetail {
     pub rounds: Vec<StoredRound>,
     /// Succeeded design runs by round, which the rounds' fits used.
     pub runs: BTreeMap<i64, Vec<Run>>,
+    /// What its noise design found, when it has run.
+    pub noise: Option<crate::noise::NoiseSummary>,
 }
 
 /// One job with what belongs to it.
@@ -119,7 +121,9 @@ impl StudyDetail {
             .collect();
         let rounds = store.rounds(study.id).await?;
         let runs = surfaces::design_runs(store, study.id).await?;
+        let noise = crate::noise::summary(store, &study.name).await?;
         Ok(StudyDetail {
+            noise,
             driver: Driver::of(&study),
             study,
             factors,
@@ -193,14 +197,19 @@ impl StudyDetail {
             .map(|note| format!("{note}\n"))
             .unwrap_or_default();
         format!(
-            "study {} ({}, {}): {} jobs: {}\n{note}{}{}",
+            "study {} ({}, {}): {} jobs: {}\n{note}{}{}{}",
             self.study.name,
             self.study.solver,
             self.study.state,
             self.jobs.len(),
             summary.join(", "),
             table(&rows),
-            rounds_summary(&self.rounds, &self.factors, &self.runs)
+            rounds_summary(&self.rounds, &self.factors, &self.runs),
+            self.noise
+                .as_ref()
+                .and_then(|n| n.line())
+                .map(|line| format!("{line}\n"))
+                .unwrap_or_default()
         )
     }
 
@@ -226,6 +235,10 @@ impl StudyDetail {
                 "counts": counts,
             },
             "rounds": self.rounds.iter().map(|r| round_json(r, &names)).collect::<Vec<_>>(),
+            "noise_design": self.noise.as_ref().map(|n| {
+                let names: Vec<&str> = n.factors.iter().map(String::as_str).collect();
+                json!({"study": n.study, "round": round_json(&n.round, &names)})
+            }),
             "factors": self.factors.iter().map(|f| json!({
                 "name": f.name, "min": f.min, "max": f.max, "unit": f.unit,
             })).collect::<Vec<_>>(),
@@ -356,6 +369,13 @@ pub fn recommendation(
         crate::report::html::number(*value),
         unit(response)
     );
+    if let Some((low, high)) = round.optimum_interval {
+        out.push_str(&format!(
+            " (a new run there: 95 % prediction interval [{}, {}])",
+            crate::report::html::number(low),
+            crate::report::html::number(high)
+        ));
+    }
     if let (Some(spread), Some(uncertainty)) = (&round.uncertainty, &study.uncertainty) {
         let inputs: Vec<String> = uncertainty
             .parameters
@@ -382,6 +402,14 @@ pub fn recommendation(
             crate::report::html::number(spread.q975),
             u = unit(response)
         ));
+        if let Some(total) = &round.uncertainty_total {
+            out.push_str(&format!(
+                ", with the surrogate's own error [{}, {}] {}",
+                crate::report::html::number(total.q025),
+                crate::report::html::number(total.q975),
+                unit(response)
+            ));
+        }
     }
     out.push('\n');
     for warning in verdict::optimum_warnings(round, factors, runs) {

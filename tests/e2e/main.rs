@@ -13,6 +13,7 @@ mod crash_resume;
 mod custom;
 mod faults;
 mod native;
+mod noise;
 mod openfoam;
 mod pipes;
 mod real_liggghts;

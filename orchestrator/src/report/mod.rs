@@ -76,6 +76,9 @@ pub async fn render(
     for round in &data.rounds {
         body.push_str(&round_section(store, &data, round).await?);
     }
+    if let Some(noise) = crate::noise::summary(store, &row.name).await? {
+        body.push_str(&noise_section(&data, &noise));
+    }
     body.push_str(&runs_section(store, &data).await?);
     Ok(html::page(&format!("{}: report", row.name), &body))
 }
@@ -87,7 +90,10 @@ const DEFINITIONS: &str = "<h2>Definitions</h2>\n<dl>\
 <dt>R²</dt><dd>ANOVA R² = 1 − SS_res / SS_tot on the fitted runs themselves; it rises with every term added and says little about prediction.</dd>\
 <dt>Standardised effect (t)</dt><dd>A term's coefficient divided by its standard error; the Pareto chart ranks terms by |t|, the red line at |t| = 2 marks about 95 % significance.</dd>\
 <dt>Leverage</dt><dd>How much a run fixes its own prediction (the hat matrix's diagonal). A run of leverage 1 (a single centre point, or as many runs as terms) cannot be left out, so σ_cross is not defined: use 3 centre points.</dd>\
-<dt>95 % interval</dt><dd>From Monte Carlo samples of the uncertain factors through the surface at the optimum: 2.5 % and 97.5 % quantiles; one-sided bounds are the 5 % and 95 % quantiles.</dd>\
+<dt>95 % interval</dt><dd>From Monte Carlo samples of the uncertain factors through the surface at the optimum: 2.5 % and 97.5 % quantiles; one-sided bounds are the 5 % and 95 % quantiles. The second row also draws the surrogate's own error at every sample (its standard error there), so a surface that predicts poorly widens the bounds.</dd>\
+<dt>Prediction interval</dt><dd>Where a new run at a point falls with 95 % probability: the surrogate's own error and the run-to-run noise (a polynomial's from its coefficients' covariance and residual variance, Kriging's from its posterior and nugget).</dd>\
+<dt>Model choice</dt><dd>Each response's surrogate is the candidate (linear, quadratic, cubic polynomials with insignificant terms dropped, and Kriging) with the smallest leave-one-out RMSE; a simpler one within 5 % of it is preferred.</dd>\
+<dt>Sobol indices</dt><dd>The share of a response's variance over the round's box (factors uniform on it) due to each factor alone (first order) and with its interactions (total).</dd>\
 </dl>\n";
 
 async fn round_section(
@@ -528,6 +534,14 @@ fn optimum_section(data: &Data<'_>, round: &StoredRound) -> String {
         escape(response),
         with_unit(*value, &unit)
     );
+    if let Some((low, high)) = round.optimum_interval {
+        let _ = writeln!(
+            out,
+            "<p>A new run there: 95 % prediction interval [{}, {}] (the surrogate's own error and run-to-run noise).</p>",
+            with_unit(low, &unit),
+            with_unit(high, &unit)
+        );
+    }
     let headers: Vec<String> = ["factor", "value", "round's box", "limits in the study file"]
         .iter()
         .map(|s| s.to_string())
@@ -553,29 +567,87 @@ fn optimum_section(data: &Data<'_>, round: &StoredRound) -> String {
             "<h3>Monte Carlo at the optimum of round {}</h3>\n<p class=\"note\">The store keeps only these summary numbers of the {} samples, not the samples, so no histogram is drawn.</p>",
             round.round, u.samples
         );
-        let headers: Vec<String> = [
-            "mean",
-            "std",
-            "95 % interval",
-            "one-sided 95 % lower bound",
-            "one-sided 95 % upper bound",
+        out.push_str(&spread_table(u, round.uncertainty_total.as_ref(), &unit));
+    }
+    out
+}
+
+/// The spread at an optimum from the uncertain inputs alone, and (when stored) with
+/// the surrogate's own error sampled too, one row each.
+fn spread_table(
+    inputs: &orch_metamodel::Spread,
+    total: Option<&orch_metamodel::Spread>,
+    unit: &str,
+) -> String {
+    let headers: Vec<String> = [
+        "through the surface",
+        "mean",
+        "std",
+        "95 % interval",
+        "one-sided 95 % lower bound",
+        "one-sided 95 % upper bound",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect();
+    let row = |what: &str, u: &orch_metamodel::Spread| {
+        vec![
+            what.to_string(),
+            with_unit(u.mean, unit),
+            with_unit(u.std, unit),
+            format!("[{}, {}]", with_unit(u.q025, unit), with_unit(u.q975, unit)),
+            with_unit(u.q05, unit),
+            with_unit(u.q95, unit),
         ]
+    };
+    let mut rows = vec![row("uncertain inputs only", inputs)];
+    if let Some(total) = total {
+        rows.push(row("and the surrogate's own error", total));
+    }
+    table(&headers, &rows)
+}
+
+/// The noise design around the optimum: where it ran, its surrogates and the bounds
+/// at the optimum under the uncertain parameters.
+fn noise_section(data: &Data<'_>, noise: &crate::noise::NoiseSummary) -> String {
+    let mut out = format!(
+        "<h2>Noise design around the optimum</h2>\n<p>Study <a href=\"{name}.html\">{name}</a> varied {} around the optimum and fitted a surrogate per response; its report has every figure.</p>\n",
+        escape(&noise.factors.join(", ")),
+        name = escape(&noise.study)
+    );
+    let rows: Vec<Vec<String>> = noise
+        .round
+        .fits
         .iter()
-        .map(|s| s.to_string())
+        .map(|f| {
+            let fmt = |v: Option<f64>, d: usize| {
+                v.map(|v| format!("{v:.d$}")).unwrap_or_else(|| "–".into())
+            };
+            vec![
+                escape(&f.response),
+                escape(f.model.as_deref().unwrap_or("")),
+                f.runs.to_string(),
+                fmt(f.sigma_cross, 1),
+                fmt(f.r2_cross, 4),
+            ]
+        })
         .collect();
-        out.push_str(&table(
-            &headers,
-            &[vec![
-                with_unit(u.mean, &unit),
-                with_unit(u.std, &unit),
-                format!(
-                    "[{}, {}]",
-                    with_unit(u.q025, &unit),
-                    with_unit(u.q975, &unit)
-                ),
-                with_unit(u.q05, &unit),
-                with_unit(u.q95, &unit),
-            ]],
+    out.push_str(&table(
+        &["response", "surrogate", "runs", "σ_cross %", "R²(σ_cross)"].map(String::from),
+        &rows,
+    ));
+    if let (Some((response, ..)), Some(u)) = (&noise.round.optimum, &noise.round.uncertainty) {
+        let unit = data.unit(response);
+        let _ = writeln!(
+            out,
+            "<p>{} at the optimum under the uncertain parameters ({} samples):</p>",
+            escape(response),
+            u.samples
+        );
+        out.push_str(&spread_table(
+            u,
+            noise.round.uncertainty_total.as_ref(),
+            &unit,
         ));
     }
     out

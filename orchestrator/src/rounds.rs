@@ -10,11 +10,11 @@ use std::collections::HashMap;
 use std::path::Path;
 
 use orch_metamodel::optimise::BoxBounds;
-use orch_metamodel::propose::{converged, shrink_around};
+use orch_metamodel::propose::{converged, least_certain, shrink_around};
 use orch_metamodel::surrogate::{choose, Choice, Surrogate};
 use orch_metamodel::{
-    lack_of_fit, optimise_subject_to, propagate, propagate_with_error, BasisKind, Constraint,
-    Design, Distribution, FactorRange, Goal,
+    lack_of_fit, optimise_subject_to, propagate, propagate_with_error, propose_batch, BasisKind,
+    Constraint, Design, Distribution, FactorRange, Goal,
 };
 
 use crate::store::{
@@ -391,12 +391,82 @@ async fn analyse(
         record.decision = Decision::Converged;
         record.note = format!("{note}{constrained}");
     } else {
-        // Design factors zoom in around the optimum; uncertain ones keep their range.
-        let mut next_ranges = shrink_around(&natural, &ranges, &limits, study.metamodel.shrink);
-        for (index, _) in &uncertain {
-            next_ranges[*index] = ranges[*index];
+        // A Kriging objective proposes by expected improvement in the same box; a
+        // polynomial one zooms in: the design again in a box `shrink` times as wide
+        // around the optimum (uncertain factors keep their range).
+        let kriging = match objective.terms.as_slice() {
+            [(response, weight)] => match &surfaces[response] {
+                Surrogate::Kriging { model, .. } => {
+                    let goal = match (objective.goal, *weight >= 0.0) {
+                        (goal, true) => goal,
+                        (Goal::Maximise, false) => Goal::Minimise,
+                        (Goal::Minimise, false) => Goal::Maximise,
+                    };
+                    Some((response, model, goal))
+                }
+                Surrogate::Polynomial(_) => None,
+            },
+            _ => None,
+        };
+        let (next_ranges, mut next_coded, how) = match kriging {
+            Some((response, model, goal)) => {
+                let batch = study.executor.max_parallel.max(2);
+                let (x, y) = &data[response].design;
+                let seed = study.seed.wrapping_add(round as u64);
+                let points = propose_batch(model, x, y, &bounds, batch, goal, seed, &options);
+                let how = format!(
+                    "{} expected-improvement points (a kriging-believer batch, one per job slot) in the same box",
+                    points.len()
+                );
+                (ranges.clone(), points, how)
+            }
+            None => {
+                let mut next_ranges =
+                    shrink_around(&natural, &ranges, &limits, study.metamodel.shrink);
+                for (index, _) in &uncertain {
+                    next_ranges[*index] = ranges[*index];
+                }
+                let design =
+                    Design::build(&study.design, k).expect("the design was built for round 0");
+                let how = format!(
+                    "a box {} times as wide around the optimum",
+                    study.metamodel.shrink
+                );
+                (next_ranges, design.points, how)
+            }
+        };
+        // Always a few runs where the objective's surrogate is least certain, so that
+        // the next round tests it where it knows least.
+        let to_current = |coded: &[f64]| -> Vec<f64> {
+            coded
+                .iter()
+                .zip(&next_ranges)
+                .zip(&ranges)
+                .map(|((c, next), now)| now.to_coded(next.to_natural(*c)))
+                .collect()
+        };
+        let mut next_bounds = BoxBounds::coded(k);
+        for (index, distribution) in &uncertain {
+            let centre = next_ranges[*index]
+                .to_coded(mean_of(distribution))
+                .clamp(-1.0, 1.0);
+            next_bounds.lower[*index] = centre;
+            next_bounds.upper[*index] = centre;
         }
-        let design = Design::build(&study.design, k).expect("the design was built for round 0");
+        let probes = if mean_std(&to_current(&vec![0.0; k])).is_some() {
+            least_certain(
+                &|c| mean_std(&to_current(c)).unwrap_or(0.0),
+                &next_bounds,
+                &next_coded,
+                (k / 2).max(1),
+                0.25,
+                study.seed.wrapping_add(31 * round as u64),
+            )
+        } else {
+            Vec::new()
+        };
+        let probed = probes.len();
+        next_coded.extend(probes);
         let to_point = |coded: Vec<f64>| DesignPoint {
             natural: coded
                 .iter()
@@ -405,13 +475,13 @@ async fn analyse(
                 .collect(),
             coded,
         };
-        let next_points = design.points.into_iter().map(to_point).collect();
+        let next_points = next_coded.into_iter().map(to_point).collect();
         let next_tests = study.test_points(round + 1, &next_ranges);
         record.decision = Decision::NextRound;
         record.note = format!(
-            "round {} in a box {} times as wide around the optimum{constrained}",
+            "round {}: {how}, and {probed} run{} where the surrogate is least certain{constrained}",
             round + 2,
-            study.metamodel.shrink
+            if probed == 1 { "" } else { "s" }
         );
         record.next = Some((next_ranges, next_points, next_tests));
     }
@@ -667,8 +737,10 @@ rounds: 2
             .into_iter()
             .filter(|j| j.state() == JobState::Pending)
             .collect();
-        assert_eq!(pending.len(), 13);
+        // The design's 9 runs, 1 where the surrogate is least certain, 4 test points.
+        assert_eq!(pending.len(), 9 + 1 + 4);
         assert!(pending.iter().any(|j| j.name == "r1-t000r0"));
+        assert!(note.starts_with("round 2: a box 0.5 times as wide around the optimum, and 1 run where the surrogate is least certain"), "{note}");
         // Round 1 is not analysed before its jobs ran; round 0 is never analysed twice.
         assert!(!store.round_decided(id, 1).await.unwrap());
         assert_eq!(store.rounds(id).await.unwrap()[0], rounds[0]);
@@ -841,5 +913,67 @@ uncertainty:
             &|_| Some(0.05)
         )
         .is_some());
+    }
+
+    /// Kriging forced, three job slots, two rounds.
+    const KRIGING: &str = "\
+name: kriging
+solver: liggghts
+executor: {max_parallel: 3}
+factors:
+  - {name: outlet_diameter, min: 0.020, max: 0.028}
+  - {name: amplitude, min: 0.0, max: 0.0008}
+design: {type: latin_hypercube, samples: 12, seed: 4}
+objective: {response: discharge_rate, goal: minimise}
+metamodel: {model: kriging}
+rounds: 2
+";
+
+    #[tokio::test]
+    async fn a_kriging_objective_proposes_one_expected_improvement_point_per_job_slot_in_the_same_box(
+    ) {
+        // A bowl with its minimum inside the box at coded (0.3, −0.4).
+        let run = testing::round_run(KRIGING, |coded, _| JobResults {
+            responses: vec![(
+                "discharge_rate".into(),
+                (coded[0] - 0.3).powi(2) + (coded[1] + 0.4).powi(2),
+            )],
+            series: vec![],
+            note: None,
+        })
+        .await;
+        let (store, id) = (&run.store, run.id);
+        assert_eq!(
+            advance(store, id, &run.study, &run.runs_dir())
+                .await
+                .unwrap(),
+            Advance::NextRound(1)
+        );
+        let rounds = store.rounds(id).await.unwrap();
+        let (_, note) = rounds[0].decision.clone().unwrap();
+        assert!(
+            note.starts_with("round 2: 3 expected-improvement points (a kriging-believer batch, one per job slot) in the same box, and 1 run where the surrogate is least certain"),
+            "{note}"
+        );
+        assert_eq!(
+            rounds[0].fits[0].model.as_deref(),
+            Some("kriging, Matérn 5/2, constant trend")
+        );
+        // The same box; four new design points, the expected-improvement ones near the
+        // minimum.
+        assert_eq!(rounds[1].ranges, rounds[0].ranges);
+        let points: Vec<_> = store
+            .points(id)
+            .await
+            .unwrap()
+            .into_iter()
+            .filter(|p| p.round == 1)
+            .collect();
+        assert_eq!(points.len(), 4);
+        let near = points
+            .iter()
+            .filter(|p| (p.coded[0] - 0.3).hypot(p.coded[1] + 0.4) < 0.5)
+            .count();
+        assert!(near >= 1, "{points:?}");
     }
 }

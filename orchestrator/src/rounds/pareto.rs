@@ -176,12 +176,12 @@ pub(super) fn analyse_front(
         .iter()
         .map(|(r, _)| &surfaces[r])
         .collect();
-    let predictors: Vec<Box<dyn Fn(&[f64]) -> f64 + '_>> = fits
+    // One closure per objective (all of one type), then the objectives on them.
+    let predictors: Vec<_> = fits.iter().map(|s| move |x: &[f64]| s.predict(x)).collect();
+    let functions: Vec<orch_metamodel::pareto::Objective<'_>> = predictors
         .iter()
-        .map(|s| Box::new(move |x: &[f64]| s.predict(x)) as Box<dyn Fn(&[f64]) -> f64 + '_>)
+        .map(|p| p as &dyn Fn(&[f64]) -> f64)
         .collect();
-    let functions: Vec<orch_metamodel::pareto::Objective<'_>> =
-        predictors.iter().map(|p| &**p).collect();
     let goals: Vec<Goal> = objective.objectives.iter().map(|(_, g)| *g).collect();
     let found = pareto_front(
         &functions,

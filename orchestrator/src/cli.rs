@@ -300,11 +300,23 @@ fn dry_run_summary(study: &Study) -> String {
     let _ = writeln!(out, "responses: {}", responses.join(", "));
     match &study.objective {
         Some(objective) => {
+            let what = if objective.is_pareto() {
+                format!(
+                    "Pareto front of {} points: {}",
+                    objective.front_points,
+                    objective
+                        .objectives
+                        .iter()
+                        .map(|(r, g)| format!("{g:?} {r}"))
+                        .collect::<Vec<_>>()
+                        .join(" vs ")
+                )
+            } else {
+                format!("{:?} {}", objective.goal, objective.name())
+            };
             let _ = writeln!(
                 out,
-                "objective: {:?} {}{}",
-                objective.goal,
-                objective.name(),
+                "objective: {what}{}",
                 objective
                     .constraints
                     .iter()

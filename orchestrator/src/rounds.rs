@@ -4,7 +4,8 @@
 //! uncertain factors through the objective's surfaces at the optimum, and decide on
 //! the next round (a box `shrink` times as wide around the optimum) or stop. All of it
 //! is recorded in one transaction with the next round's jobs, so a crash either loses
-//! the whole analysis (and it is redone) or none of it.
+//! the whole analysis (and it is redone) or none of it. A study with two or more
+//! objectives gets a Pareto front and its compromise point instead ([`pareto`]).
 
 use std::collections::HashMap;
 use std::path::Path;
@@ -22,6 +23,8 @@ use crate::store::{
 };
 use crate::study::{mean_of, DesignPoint, Objective, Study};
 use crate::surfaces;
+
+pub mod pareto;
 
 /// What happened after a round.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -180,6 +183,7 @@ async fn analyse(
         optimum_interval: None,
         uncertainty: None,
         uncertainty_total: None,
+        front: Vec::new(),
         decision: Decision::LastRound,
         note: String::new(),
         next: None,
@@ -211,6 +215,11 @@ async fn analyse(
             .unwrap_or_default();
         record.decision = Decision::NoOptimum;
         record.note = format!("no surface for {missing}: {why}");
+        return Ok(record);
+    }
+    if objective.is_pareto() {
+        let previous = previous_optimum(store, study_id, round).await?;
+        pareto::analyse_front(study, objective, &ranges, &surfaces, previous, &mut record);
         return Ok(record);
     }
     let value = |x: &[f64]| {
@@ -486,6 +495,25 @@ async fn analyse(
         record.next = Some((next_ranges, next_points, next_tests));
     }
     Ok(record)
+}
+
+/// The value of the previous round's optimum (a compromise point's first objective),
+/// if there is a previous round and it has one.
+async fn previous_optimum(
+    store: &Store,
+    study_id: i64,
+    round: i64,
+) -> Result<Option<f64>, StoreError> {
+    if round == 0 {
+        return Ok(None);
+    }
+    Ok(store
+        .rounds(study_id)
+        .await?
+        .into_iter()
+        .find(|r| r.round == round - 1)
+        .and_then(|r| r.optimum)
+        .map(|o| o.2))
 }
 
 /// What the store keeps of one response's model choice on a round's runs.
@@ -868,6 +896,169 @@ uncertainty:
         // At a maximum the input spread cannot push the rate above it; only the
         // surrogate's error can.
         assert!(total.q975 > inputs.q975, "{total:?} vs {inputs:?}");
+    }
+
+    /// Two objectives traded off in two factors, two rounds.
+    const FRONT: &str = "\
+name: front
+solver: liggghts
+factors:
+  - {name: outlet_diameter, min: 0.020, max: 0.028}
+  - {name: amplitude, min: 0.0, max: 0.0008}
+design: {type: central_composite, alpha: face_centred}
+objective:
+  objectives:
+    - {response: discharge_rate, goal: maximise}
+    - {response: segregation_ratio, goal: minimise}
+  front_points: 11
+rounds: 2
+";
+
+    /// The rate's maximum and the segregation's minimum, coded: with equal, isotropic
+    /// curvatures the Pareto set is the segment between them.
+    const P: [f64; 2] = [0.5, 0.3];
+    const Q: [f64; 2] = [-0.3, -0.1];
+
+    fn front_responses(coded: &[f64]) -> Vec<(String, f64)> {
+        let d = |c: [f64; 2]| (coded[0] - c[0]).powi(2) + (coded[1] - c[1]).powi(2);
+        vec![
+            ("discharge_rate".into(), 1.0 - d(P)),
+            ("segregation_ratio".into(), 1.0 + 2.0 * d(Q)),
+        ]
+    }
+
+    /// Where `x` lies along P→Q (0 at P, 1 at Q) and how far it is off the segment.
+    fn along_segment(x: &[f64]) -> (f64, f64) {
+        let d = [Q[0] - P[0], Q[1] - P[1]];
+        let t = ((x[0] - P[0]) * d[0] + (x[1] - P[1]) * d[1]) / (d[0] * d[0] + d[1] * d[1]);
+        let c = t.clamp(0.0, 1.0);
+        let off = (x[0] - P[0] - c * d[0]).hypot(x[1] - P[1] - c * d[1]);
+        (t, off)
+    }
+
+    #[tokio::test]
+    async fn a_two_objective_round_stores_its_front_and_samples_it_next_round() {
+        let run = testing::round_run(FRONT, |coded, _| JobResults {
+            responses: front_responses(coded),
+            series: vec![],
+            note: None,
+        })
+        .await;
+        let (store, id, study) = (&run.store, run.id, &run.study);
+        // The analysis is pure and seeded: the same record as advance() stores.
+        let analysed = analyse(store, id, study, 0).await.unwrap();
+        let advanced = advance(store, id, study, &run.runs_dir()).await.unwrap();
+        assert_eq!(advanced, Advance::NextRound(1));
+        let rounds = store.rounds(id).await.unwrap();
+        let first = &rounds[0];
+        // The store round-trips the front exactly.
+        assert_eq!(first.front, analysed.front);
+        let front = &first.front;
+        assert!(front.len() >= 8, "{} points: {front:?}", front.len());
+
+        // Every point, coded again through the round's box, lies on the segment P–Q.
+        let box0 = &first.ranges;
+        let coded = |natural: &[f64]| -> Vec<f64> {
+            natural
+                .iter()
+                .zip(box0)
+                .map(|(v, r)| r.to_coded(*v))
+                .collect()
+        };
+        let mut along = Vec::new();
+        for point in front {
+            let (t, off) = along_segment(&coded(&point.natural));
+            assert!(off < 1e-2, "{point:?} is {off} off the segment");
+            assert!((-1e-2..=1.0 + 1e-2).contains(&t), "{point:?} at t = {t}");
+            along.push(t);
+            let names: Vec<&str> = point.objectives.iter().map(|o| o.0.as_str()).collect();
+            assert_eq!(names, ["discharge_rate", "segregation_ratio"]);
+            assert_eq!(point.objectives[1].1, "minimise");
+        }
+        // From the rate's best end (P) to the segregation's (Q): both objectives fall.
+        assert!(
+            along[0] < 1e-2 && along[along.len() - 1] > 1.0 - 1e-2,
+            "{along:?}"
+        );
+        assert!(front
+            .windows(2)
+            .all(|w| w[1].objectives[0].2 < w[0].objectives[0].2
+                && w[1].objectives[1].2 < w[0].objectives[1].2));
+
+        // One compromise point, on the segment, about its middle (each objective scaled
+        // by its range over the front, the two are symmetric there).
+        let compromises: Vec<_> = front.iter().filter(|p| p.compromise).collect();
+        assert_eq!(compromises.len(), 1);
+        let compromise = compromises[0];
+        let (t, off) = along_segment(&coded(&compromise.natural));
+        assert!(off < 1e-2 && (t - 0.5).abs() < 0.1, "t = {t}, off = {off}");
+        // Stored as the round's optimum.
+        let (name, goal, value, natural) = first.optimum.clone().unwrap();
+        assert_eq!(
+            (name.as_str(), goal.as_str()),
+            ("discharge_rate vs segregation_ratio", "pareto")
+        );
+        assert_eq!(natural, compromise.natural);
+        assert_eq!(value, compromise.objectives[0].2);
+        assert_eq!(first.decision.as_ref().unwrap().0, Decision::NextRound);
+
+        // The next box: half as wide, centred on the compromise point.
+        let next = &rounds[1].ranges;
+        for (i, r) in next.iter().enumerate() {
+            assert!(
+                ((r.min + r.max) / 2.0 - natural[i]).abs() < 1e-12,
+                "{next:?}"
+            );
+            let width = box0[i].max - box0[i].min;
+            assert!(((r.max - r.min) - width / 2.0).abs() < 1e-12, "{next:?}");
+        }
+        // Its design: the 9 runs of the CCD, then 5 front points recoded into it (the
+        // compromise point is its centre run already).
+        let points: Vec<_> = store
+            .points(id)
+            .await
+            .unwrap()
+            .into_iter()
+            .filter(|p| p.round == 1 && p.purpose == "design")
+            .collect();
+        assert_eq!(points.len(), 9 + 5);
+        for extra in &points[9..] {
+            let on_front = front.iter().any(|f| {
+                f.natural
+                    .iter()
+                    .zip(&extra.natural)
+                    .zip(next)
+                    .all(|((a, b), r)| (a - b).abs() < 1e-9 * (r.max - r.min))
+            });
+            assert!(on_front, "{extra:?} is no front point");
+            assert!(!extra.natural.iter().zip(&natural).all(|(a, b)| a == b));
+            for ((c, v), r) in extra.coded.iter().zip(&extra.natural).zip(next) {
+                assert!(c.abs() <= 1.0 && (r.to_coded(*v) - c).abs() < 1e-9);
+            }
+        }
+        // Its jobs wait; the text summary names the front and its compromise point.
+        let pending = store
+            .jobs(id)
+            .await
+            .unwrap()
+            .into_iter()
+            .filter(|j| j.state() == JobState::Pending)
+            .count();
+        assert_eq!(pending, 14);
+        let factors = store.factors(id).await.unwrap();
+        let runs = surfaces::design_runs(store, id).await.unwrap();
+        let text = crate::status::rounds_summary(&rounds, &factors, &runs);
+        assert!(
+            text.contains(&format!(
+                "  Pareto front of {} points; compromise point: discharge_rate = ",
+                front.len()
+            )),
+            "{text}"
+        );
+        assert!(
+            text.contains("  compromise point (pareto discharge_rate vs segregation_ratio): discharge_rate = "),
+            "{text}"
+        );
     }
 
     #[test]

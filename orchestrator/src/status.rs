@@ -323,8 +323,45 @@ fn round_json(round: &StoredRound, names: &[&str]) -> Value {
                 "interval_95": [t.q025, t.q975], "lower_bound_95": t.q05, "upper_bound_95": t.q95,
             })),
         })),
+        "pareto_front": round.front.iter().map(|p| json!({
+            "objectives": p.objectives.iter().map(|(r, _, v)| (r.clone(), json!(v))).collect::<BTreeMap<_, _>>(),
+            "factors": by_factor(&p.natural),
+            "compromise": p.compromise,
+        })).collect::<Vec<_>>(),
         "decision": round.decision.as_ref().map(|(d, note)| json!({"decision": d.as_str(), "note": note})),
     })
+}
+
+/// The text summary's lines on a round's Pareto front: its size and the compromise
+/// point's objective and factor values; empty without a front.
+fn front_lines(round: &StoredRound, names: &[String]) -> String {
+    if round.front.is_empty() {
+        return String::new();
+    }
+    let Some(point) = round.front.iter().find(|p| p.compromise) else {
+        return format!(
+            "  Pareto front of {} points
+",
+            round.front.len()
+        );
+    };
+    let objectives: Vec<String> = point
+        .objectives
+        .iter()
+        .map(|(r, g, v)| format!("{r} = {v:.6} ({g})"))
+        .collect();
+    let factors: Vec<String> = names
+        .iter()
+        .zip(&point.natural)
+        .map(|(n, v)| format!("{n} = {v:.6}"))
+        .collect();
+    format!(
+        "  Pareto front of {} points; compromise point: {} at {}
+",
+        round.front.len(),
+        objectives.join(", "),
+        factors.join(", ")
+    )
 }
 
 /// The verdict on one stored fit of a round, from the round's runs: constant, does not
@@ -362,12 +399,36 @@ pub fn recommendation(
             )
         })
         .collect();
+    let compromise = round.front.iter().find(|p| p.compromise);
+    let predicted = match compromise {
+        Some(point) => format!(
+            "compromise point of a Pareto front of {} points: {} predicted there",
+            round.front.len(),
+            point
+                .objectives
+                .iter()
+                .map(|(r, g, v)| format!(
+                    "{r} {} {} ({g})",
+                    crate::report::html::number(*v),
+                    unit(r)
+                ))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+        None => format!(
+            "{goal} {response}: {} {} predicted there",
+            crate::report::html::number(*value),
+            unit(response)
+        ),
+    };
+    // The spread is of the objective, or of a compromise point's first objective.
+    let response = compromise
+        .and_then(|p| p.objectives.first())
+        .map_or(response, |(r, _, _)| r);
     let mut out = format!(
-        "recommended design (round {}): {}\n  {goal} {response}: {} {} predicted there",
+        "recommended design (round {}): {}\n  {predicted}",
         round.round,
         design.join(", "),
-        crate::report::html::number(*value),
-        unit(response)
     );
     if let Some((low, high)) = round.optimum_interval {
         out.push_str(&format!(
@@ -485,6 +546,7 @@ pub fn rounds_summary(
                 ));
             }
         }
+        out.push_str(&front_lines(round, &names));
         if let Some((response, goal, value, natural)) = &round.optimum {
             let at: Vec<String> = names
                 .iter()
@@ -495,13 +557,22 @@ pub fn rounds_summary(
             let answer = !warnings
                 .iter()
                 .any(|w| w.starts_with(verdict::NOT_AN_ANSWER));
+            let what = match (answer, goal.as_str()) {
+                (true, "pareto") => "compromise point",
+                (true, _) => "optimum",
+                (false, _) => "best point of the surface, not an answer",
+            };
+            // A compromise point's value is its first objective's.
+            let value = match round.front.iter().find(|p| p.compromise) {
+                Some(point) if goal == "pareto" => point
+                    .objectives
+                    .first()
+                    .map(|(r, _, v)| format!("{r} = {v:.6}"))
+                    .unwrap_or_else(|| format!("{value:.6}")),
+                _ => format!("{value:.6}"),
+            };
             out.push_str(&format!(
-                "  {} ({goal} {response}): {value:.6} at {}\n",
-                if answer {
-                    "optimum"
-                } else {
-                    "best point of the surface, not an answer"
-                },
+                "  {what} ({goal} {response}): {value} at {}\n",
                 at.join(", ")
             ));
             if let Some((low, high)) = round.optimum_interval {
@@ -951,5 +1022,40 @@ mod tests {
             text.contains("σ_cross of rate is –: 2 runs for 2 terms: every run has leverage 1"),
             "{text}"
         );
+    }
+
+    #[test]
+    fn a_rounds_json_has_its_pareto_front_by_name() {
+        let point = |rate: f64, ratio: f64, d: f64, compromise: bool| crate::store::FrontPoint {
+            objectives: vec![
+                ("rate".into(), "maximise".into(), rate),
+                ("ratio".into(), "minimise".into(), ratio),
+            ],
+            coded: vec![0.0],
+            natural: vec![d],
+            compromise,
+        };
+        let round = StoredRound {
+            front: vec![point(2.0, 1.5, 0.028, false), point(1.0, 1.1, 0.024, true)],
+            ..Default::default()
+        };
+        let json = round_json(&round, &["outlet_diameter"]);
+        assert_eq!(
+            json["pareto_front"],
+            json!([
+                {"objectives": {"rate": 2.0, "ratio": 1.5}, "factors": {"outlet_diameter": 0.028}, "compromise": false},
+                {"objectives": {"rate": 1.0, "ratio": 1.1}, "factors": {"outlet_diameter": 0.024}, "compromise": true},
+            ])
+        );
+        assert_eq!(
+            front_lines(&round, &["outlet_diameter".into()]),
+            "  Pareto front of 2 points; compromise point: rate = 1.000000 (maximise), ratio = 1.100000 (minimise) at outlet_diameter = 0.024000\n"
+        );
+        // A single-objective round has an empty front and no line.
+        assert_eq!(
+            round_json(&StoredRound::default(), &[])["pareto_front"],
+            json!([])
+        );
+        assert_eq!(front_lines(&StoredRound::default(), &[]), "");
     }
 }

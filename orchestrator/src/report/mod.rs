@@ -4,8 +4,9 @@
 //! Per round: the design in natural units, the trust-region box, each response
 //! surface (a heat map for two factors, a curve for one, slices through the optimum
 //! for more) with its design points, predicted against observed with leave-one-out
-//! predictions, the Pareto chart of standardised effects, the optimum, and the Monte
-//! Carlo summary. Per run: the response values and every stored series.
+//! predictions, the Pareto chart of standardised effects, a multi-objective round's
+//! Pareto front (a chart in objective space for two objectives, and a table), the
+//! optimum (or compromise point), and the Monte Carlo summary. Per run: the response values and every stored series.
 //! The surfaces are refitted from the stored runs ([`crate::surfaces`]).
 
 pub mod html;
@@ -120,8 +121,80 @@ async fn round_section(
     for fit in &round.fits {
         out.push_str(&surface_section(data, round, fit, runs));
     }
+    out.push_str(&front_section(data, round));
     out.push_str(&optimum_section(data, round));
     Ok(out)
+}
+
+/// A multi-objective round's Pareto front: a chart in objective space for two
+/// objectives, and a table of every point with its factor values; empty without a front.
+fn front_section(data: &Data<'_>, round: &StoredRound) -> String {
+    let Some(first) = round.front.first() else {
+        return String::new();
+    };
+    let mut out = format!(
+        "<h3>Pareto front of round {}</h3>\n<p>{} points of the surfaces' Pareto front in the round's box, each no worse than any other point of the box in every objective; the compromise point, closest to the best value of every objective with each objective scaled by its range over the front, is the round's recommendation.</p>\n",
+        round.round,
+        round.front.len()
+    );
+    // Plain text: the chart and the table escape it.
+    let objective_label = |(response, goal, _): &(String, String, f64)| {
+        format!(
+            "{goal} {}",
+            crate::export::header(response, Some(&data.unit(response)))
+        )
+    };
+    if let [a, b] = first.objectives.as_slice() {
+        let points: Vec<(f64, f64)> = round
+            .front
+            .iter()
+            .filter(|p| p.objectives.len() == 2)
+            .map(|p| (p.objectives[0].2, p.objectives[1].2))
+            .collect();
+        let compromise = round
+            .front
+            .iter()
+            .find(|p| p.compromise && p.objectives.len() == 2)
+            .map(|p| (p.objectives[0].2, p.objectives[1].2));
+        out.push_str(&figure(
+            &plots::front(
+                &format!("Pareto front: {} vs {}", a.0, b.0),
+                &objective_label(a),
+                &objective_label(b),
+                &points,
+                compromise,
+            ),
+            "The front's points (blue) in order along it; red cross: the compromise point.",
+        ));
+    } else {
+        out.push_str("<p class=\"note\">With three or more objectives the front is shown as a table only.</p>\n");
+    }
+    let mut headers = vec![String::from("point")];
+    headers.extend(first.objectives.iter().map(objective_label));
+    headers.extend(
+        data.factors
+            .iter()
+            .map(|f| crate::export::header(&f.name, Some(&f.unit))),
+    );
+    headers.push(String::new());
+    let rows: Vec<Vec<String>> = round
+        .front
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let mut row = vec![i.to_string()];
+            row.extend(p.objectives.iter().map(|o| number(o.2)));
+            row.extend(p.natural.iter().map(|v| number(*v)));
+            row.push(if p.compromise {
+                "compromise".into()
+            } else {
+                String::new()
+            });
+            row
+        })
+        .collect();
+    out.push_str(&table(&headers, &rows));
+    out
 }
 
 async fn design_table(store: &Store, data: &Data<'_>, round: i64) -> Result<String, StoreError> {
@@ -510,7 +583,15 @@ fn optimum_section(data: &Data<'_>, round: &StoredRound) -> String {
         );
         return out;
     };
-    let unit = data.unit(response);
+    // A compromise point's value and Monte Carlo are its first objective's.
+    let unit = data.unit(
+        round
+            .front
+            .iter()
+            .find(|p| p.compromise)
+            .and_then(|p| p.objectives.first())
+            .map_or(response.as_str(), |o| o.0.as_str()),
+    );
     let warnings = crate::verdict::optimum_warnings(
         round,
         &data.factors,
@@ -522,17 +603,42 @@ fn optimum_section(data: &Data<'_>, round: &StoredRound) -> String {
     let answer = !warnings
         .iter()
         .any(|w| w.starts_with(crate::verdict::NOT_AN_ANSWER));
+    let compromise = round.front.iter().find(|p| p.compromise);
+    let predicted = match compromise {
+        // A compromise point: every objective's prediction there.
+        Some(point) => point
+            .objectives
+            .iter()
+            .map(|(r, g, v)| {
+                format!(
+                    "{} {}: predicted {}",
+                    escape(g),
+                    escape(r),
+                    with_unit(*v, &data.unit(r))
+                )
+            })
+            .collect::<Vec<_>>()
+            .join("; "),
+        None => format!(
+            "{} {}: predicted {}",
+            escape(goal),
+            escape(response),
+            with_unit(*value, &unit)
+        ),
+    };
     let _ = writeln!(
         out,
-        "<p>{}{} {}: predicted {}</p>",
+        "<p>{}{}{predicted}</p>",
         if answer {
             ""
         } else {
             "Best point of the surface, not an answer: "
         },
-        escape(goal),
-        escape(response),
-        with_unit(*value, &unit)
+        if compromise.is_some() {
+            "Compromise point of the Pareto front: "
+        } else {
+            ""
+        },
     );
     if let Some((low, high)) = round.optimum_interval {
         let _ = writeln!(
@@ -819,6 +925,66 @@ uncertainty:
             html.contains("<p>maximise discharge_rate: predicted"),
             "{html}"
         );
+    }
+
+    /// Two objectives in two factors, one round.
+    const FRONT: &str = "\
+name: front
+solver: liggghts
+factors:
+  - {name: outlet_diameter, min: 0.020, max: 0.028, unit: m}
+  - {name: amplitude, min: 0.0, max: 0.0008, unit: m}
+design: {type: central_composite, alpha: face_centred}
+objective:
+  objectives:
+    - {response: discharge_rate, goal: maximise}
+    - {response: segregation_ratio, goal: minimise}
+  front_points: 7
+";
+
+    #[tokio::test]
+    async fn a_report_of_a_two_objective_round_has_its_front_chart_and_table() {
+        let run = crate::rounds::testing::round_run(FRONT, |coded, _| JobResults {
+            responses: vec![
+                (
+                    "discharge_rate".into(),
+                    1.0 - (coded[0] - 0.5).powi(2) - coded[1].powi(2),
+                ),
+                (
+                    "segregation_ratio".into(),
+                    1.0 + (coded[0] + 0.5).powi(2) + coded[1].powi(2),
+                ),
+            ],
+            series: vec![],
+            note: None,
+        })
+        .await;
+        let (store, id, study) = (&run.store, run.id, &run.study);
+        crate::rounds::advance(store, id, study, &run.runs_dir())
+            .await
+            .unwrap();
+        let front = &store.rounds(id).await.unwrap()[0].front;
+        assert!(front.len() >= 5, "{front:?}");
+        let row = store.study_by_name("front").await.unwrap().unwrap();
+        let html = render(store, &row, Some(study)).await.unwrap();
+
+        // Four figures per response, the trust region, and the front.
+        assert_eq!(html.matches("<svg").count(), 2 * 4 + 1 + 1, "{html}");
+        for text in [
+            "<h3>Pareto front of round 0</h3>",
+            "Pareto front: discharge_rate vs segregation_ratio",
+            "<th>maximise discharge_rate [kg/s]</th><th>minimise segregation_ratio [-]</th><th>outlet_diameter [m]</th><th>amplitude [m]</th>",
+            "<td>compromise</td>",
+            "Compromise point of the Pareto front: maximise discharge_rate: predicted",
+            "Pareto chart: discharge_rate",
+        ] {
+            assert!(html.contains(text), "the report lacks {text}: {html}");
+        }
+        // One table row per front point, one of them the compromise.
+        let section = &html[html.find("<h3>Pareto front of round 0</h3>").unwrap()..];
+        let table = &section[..section.find("</table>").unwrap()];
+        assert_eq!(table.matches("<tr>").count(), 1 + front.len());
+        assert_eq!(table.matches("<td>compromise</td>").count(), 1);
     }
 
     #[test]

@@ -493,6 +493,51 @@ pub fn intervals(
     })
 }
 
+/// A two-objective Pareto front in objective space: its points (blue dots) joined in
+/// order along the front, and the compromise point (a red cross).
+pub fn front(
+    title: &str,
+    x_label: &str,
+    y_label: &str,
+    points: &[(f64, f64)],
+    compromise: Option<(f64, f64)>,
+) -> String {
+    let all = points.iter().chain(compromise.iter());
+    let (x0, x1) = extent(all.clone().map(|p| p.0));
+    let (y0, y1) = extent(all.map(|p| p.1));
+    svg(HALF, 360, |root| {
+        let mut chart = ChartBuilder::on(root)
+            .caption(title, (FONT, 15))
+            .margin(10)
+            .x_label_area_size(40)
+            .y_label_area_size(70)
+            .build_cartesian_2d(padded(x0, x1), padded(y0, y1))?;
+        chart
+            .configure_mesh()
+            .x_desc(x_label)
+            .y_desc(y_label)
+            .x_labels(6)
+            .x_label_formatter(&tick)
+            .y_label_formatter(&tick)
+            .label_style((FONT, 11))
+            .light_line_style(WHITE)
+            .draw()?;
+        chart.draw_series(LineSeries::new(
+            points.iter().copied(),
+            BLUE.mix(0.5).stroke_width(1),
+        ))?;
+        chart.draw_series(
+            points
+                .iter()
+                .map(|&(x, y)| Circle::new((x, y), 4, BLUE.filled())),
+        )?;
+        if let Some(c) = compromise {
+            chart.draw_series(std::iter::once(Cross::new(c, 7, RED.stroke_width(3))))?;
+        }
+        Ok(())
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -513,6 +558,13 @@ mod tests {
         assert!(svg.starts_with("<svg"), "{svg}");
         assert_eq!(svg.matches("<svg").count(), 1);
         assert!(svg.contains("Pareto chart &lt;x &amp; y&gt;"), "{svg}");
+    }
+
+    #[test]
+    fn a_front_of_one_point_still_draws() {
+        let svg = front("front", "a", "b", &[(1.0, 2.0)], Some((1.0, 2.0)));
+        assert!(svg.starts_with("<svg"), "{svg}");
+        assert!(front("front", "a", "b", &[], None).starts_with("<svg"));
     }
 
     #[test]

@@ -26,7 +26,8 @@ use sqlx::{Row, SqlitePool};
 
 pub use comparisons::{ComparisonRecord, ResponseRecord, SpeedRecord, StoredComparison};
 pub use rounds::{
-    CandidateScore, FitRecord, LackOfFitRow, RoundRecord, Sensitivity, StoredFit, StoredRound,
+    CandidateScore, FitRecord, FrontPoint, LackOfFitRow, RoundRecord, Sensitivity, StoredFit,
+    StoredRound,
 };
 pub use rows::{
     Decision, FactorRow, JobRow, JobState, PointRow, StudyRow, StudyState, UnknownState,

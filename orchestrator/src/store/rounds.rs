@@ -79,6 +79,20 @@ pub struct Sensitivity {
     pub total: (f64, f64, f64),
 }
 
+/// One point of a round's Pareto front (multi-objective studies).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct FrontPoint {
+    /// Each objective's `(response, goal, predicted value)` there, in the order of the
+    /// study file's `objectives:`; the goal is `minimise` or `maximise`.
+    pub objectives: Vec<(String, String, f64)>,
+    /// The factors, coded in the round's box.
+    pub coded: Vec<f64>,
+    /// The factors in natural units.
+    pub natural: Vec<f64>,
+    /// True for the compromise point, the one recorded as the round's optimum.
+    pub compromise: bool,
+}
+
 /// Everything the analysis of one round decided, recorded at once.
 #[derive(Debug, Clone)]
 pub struct RoundRecord {
@@ -94,6 +108,8 @@ pub struct RoundRecord {
     pub uncertainty: Option<(String, Spread, u64)>,
     /// The spread at the optimum with the surrogate's error sampled too.
     pub uncertainty_total: Option<Spread>,
+    /// The Pareto front of a multi-objective round, in order along it; empty otherwise.
+    pub front: Vec<FrontPoint>,
     /// What the stage decided.
     pub decision: Decision,
     /// Why, for people.
@@ -165,6 +181,9 @@ pub struct StoredRound {
     pub uncertainty: Option<Spread>,
     /// Spread at the optimum with the surrogate's error sampled too.
     pub uncertainty_total: Option<Spread>,
+    /// The Pareto front of a multi-objective round, in order along it; empty otherwise
+    /// (and for rounds stored before version 10).
+    pub front: Vec<FrontPoint>,
     /// `(decision, note)`.
     pub decision: Option<(Decision, String)>,
 }
@@ -355,6 +374,44 @@ impl Store {
             .execute(&mut *tx)
             .await
             .map_err(query_error("record an uncertainty"))?;
+        }
+        for (idx, point) in record.front.iter().enumerate() {
+            sqlx::query(
+                "INSERT INTO pareto_points (study_id, round, idx, compromise) VALUES (?, ?, ?, ?)",
+            )
+            .bind(study_id)
+            .bind(round)
+            .bind(idx as i64)
+            .bind(point.compromise)
+            .execute(&mut *tx)
+            .await
+            .map_err(query_error("record a Pareto front"))?;
+            for (objective_idx, (response, goal, value)) in point.objectives.iter().enumerate() {
+                sqlx::query("INSERT INTO pareto_objectives (study_id, round, idx, objective_idx, response, goal, value) VALUES (?, ?, ?, ?, ?, ?, ?)")
+                    .bind(study_id)
+                    .bind(round)
+                    .bind(idx as i64)
+                    .bind(objective_idx as i64)
+                    .bind(response)
+                    .bind(goal)
+                    .bind(value)
+                    .execute(&mut *tx)
+                    .await
+                    .map_err(query_error("record a Pareto front"))?;
+            }
+            for (factor_idx, (coded, natural)) in point.coded.iter().zip(&point.natural).enumerate()
+            {
+                sqlx::query("INSERT INTO pareto_factors (study_id, round, idx, factor_idx, coded, natural) VALUES (?, ?, ?, ?, ?, ?)")
+                    .bind(study_id)
+                    .bind(round)
+                    .bind(idx as i64)
+                    .bind(factor_idx as i64)
+                    .bind(coded)
+                    .bind(natural)
+                    .execute(&mut *tx)
+                    .await
+                    .map_err(query_error("record a Pareto front"))?;
+            }
         }
         sqlx::query("INSERT INTO proposals (study_id, round, decision, note) VALUES (?, ?, ?, ?)")
             .bind(study_id)
@@ -558,6 +615,7 @@ impl Store {
                 Some((text, note)) => Some((parse_state("proposals", round, text)?, note)),
                 None => None,
             };
+            let front = self.front(study_id, round).await?;
             rounds.push(StoredRound {
                 round,
                 ranges,
@@ -566,9 +624,53 @@ impl Store {
                 optimum_interval,
                 uncertainty,
                 uncertainty_total,
+                front,
                 decision,
             });
         }
         Ok(rounds)
+    }
+
+    /// The Pareto front stored for `round`, in order along it; empty when it has none.
+    async fn front(&self, study_id: i64, round: i64) -> Result<Vec<FrontPoint>, StoreError> {
+        let points: Vec<(i64, bool)> = sqlx::query_as(
+            "SELECT idx, compromise FROM pareto_points WHERE study_id = ? AND round = ? ORDER BY idx",
+        )
+        .bind(study_id)
+        .bind(round)
+        .fetch_all(&self.pool)
+        .await
+        .map_err(query_error("read a Pareto front"))?;
+        let objectives: Vec<(i64, String, String, f64)> = sqlx::query_as(
+            "SELECT idx, response, goal, value FROM pareto_objectives
+             WHERE study_id = ? AND round = ? ORDER BY idx, objective_idx",
+        )
+        .bind(study_id)
+        .bind(round)
+        .fetch_all(&self.pool)
+        .await
+        .map_err(query_error("read a Pareto front"))?;
+        let factors: Vec<(i64, f64, f64)> = sqlx::query_as(
+            "SELECT idx, coded, natural FROM pareto_factors
+             WHERE study_id = ? AND round = ? ORDER BY idx, factor_idx",
+        )
+        .bind(study_id)
+        .bind(round)
+        .fetch_all(&self.pool)
+        .await
+        .map_err(query_error("read a Pareto front"))?;
+        Ok(points
+            .into_iter()
+            .map(|(idx, compromise)| FrontPoint {
+                objectives: objectives
+                    .iter()
+                    .filter(|o| o.0 == idx)
+                    .map(|(_, r, g, v)| (r.clone(), g.clone(), *v))
+                    .collect(),
+                coded: factors.iter().filter(|f| f.0 == idx).map(|f| f.1).collect(),
+                natural: factors.iter().filter(|f| f.0 == idx).map(|f| f.2).collect(),
+                compromise,
+            })
+            .collect())
     }
 }

@@ -221,8 +221,9 @@ pub enum GoalFile {
     Maximise,
 }
 
-/// The `objective:` section: one response, or a weighted sum of responses, optionally
-/// subject to bounds on other responses.
+/// The `objective:` section: one response, a weighted sum of responses, or two or more
+/// responses traded off on a Pareto front, optionally subject to bounds on other
+/// responses.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ObjectiveFile {
@@ -232,11 +233,28 @@ pub struct ObjectiveFile {
     /// Or a weighted sum of responses, `{name: weight}`.
     #[serde(default)]
     pub weights: Option<BTreeMap<String, f64>>,
-    /// Direction.
-    pub goal: GoalFile,
+    /// Direction of `response:` or `weights:`; not with `objectives:`.
+    #[serde(default)]
+    pub goal: Option<GoalFile>,
+    /// Or two or more responses, each with its own goal, traded off on a Pareto front.
+    #[serde(default)]
+    pub objectives: Option<Vec<ObjectiveTermFile>>,
+    /// Points asked of the Pareto front of `objectives:` (default 15, 3 to 100).
+    #[serde(default)]
+    pub front_points: Option<usize>,
     /// Bounds on other responses' surfaces.
     #[serde(default)]
     pub constraints: Vec<ConstraintFile>,
+}
+
+/// One entry of `objectives:`: a response and its goal.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ObjectiveTermFile {
+    /// Response name.
+    pub response: String,
+    /// Direction.
+    pub goal: GoalFile,
 }
 
 /// A bound on a response at the optimum.

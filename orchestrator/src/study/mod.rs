@@ -91,20 +91,39 @@ pub struct ExecutorConfig {
 pub use orch_adapters::TemplateText as Template;
 
 /// What the rounds optimise: a weighted sum of responses (one term for a single
-/// response), subject to bounds on responses.
+/// response), or two or more responses traded off on a Pareto front, subject to bounds
+/// on responses.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Objective {
-    /// `(response, weight)`.
+    /// `(response, weight)`; on a Pareto front, the first objective with weight 1
+    /// (the response whose value at the compromise point decides convergence).
     pub terms: Vec<(String, f64)>,
-    /// Direction.
+    /// Direction; on a Pareto front, the first objective's.
     pub goal: Goal,
-    /// `(response, min, max)` bounds at the optimum.
+    /// `(response, min, max)` bounds at the optimum (at every point of a front).
     pub constraints: Vec<(String, Option<f64>, Option<f64>)>,
+    /// `(response, goal)` of each objective traded off on a Pareto front (two or more),
+    /// or empty for a single (possibly weighted) objective.
+    pub objectives: Vec<(String, Goal)>,
+    /// Points asked of the Pareto front (3 to 100); unused without `objectives`.
+    pub front_points: usize,
 }
 
+/// Points asked of a Pareto front when `front_points:` is not given.
+pub const DEFAULT_FRONT_POINTS: usize = 15;
+
 impl Objective {
-    /// A name for messages and the store: the response, or `0.5*a + 2*b`.
+    /// A name for messages and the store: the response, `0.5*a + 2*b`, or on a Pareto
+    /// front the objectives joined, `a vs b`.
     pub fn name(&self) -> String {
+        if self.is_pareto() {
+            return self
+                .objectives
+                .iter()
+                .map(|(r, _)| r.as_str())
+                .collect::<Vec<_>>()
+                .join(" vs ");
+        }
         match self.terms.as_slice() {
             [(response, weight)] if *weight == 1.0 => response.clone(),
             terms => terms
@@ -115,9 +134,18 @@ impl Objective {
         }
     }
 
+    /// True when the rounds trade two or more objectives off on a Pareto front.
+    pub fn is_pareto(&self) -> bool {
+        self.objectives.len() >= 2
+    }
+
     /// Every response the objective needs a surface of.
     pub fn responses(&self) -> Vec<String> {
-        let mut names: Vec<String> = self.terms.iter().map(|(r, _)| r.clone()).collect();
+        let mut names: Vec<String> = if self.is_pareto() {
+            self.objectives.iter().map(|(r, _)| r.clone()).collect()
+        } else {
+            self.terms.iter().map(|(r, _)| r.clone()).collect()
+        };
         for (r, _, _) in &self.constraints {
             if !names.contains(r) {
                 names.push(r.clone());
@@ -924,21 +952,83 @@ impl Checker<'_> {
                         ))
                     }
                 };
-                let terms = match (&objective.response, &objective.weights) {
-                    (Some(response), None) => {
-                        known("objective.response", response)?;
-                        vec![(response.clone(), 1.0)]
-                    }
-                    (None, Some(weights)) if !weights.is_empty() => {
-                        for (name, weight) in weights {
-                            known(&format!("objective.weights.{name}"), name)?;
-                            if !weight.is_finite() {
-                                return Err(self.error(&format!("objective.weights.{name}"), "expected a finite weight"));
-                            }
+                let goal_of = |goal: GoalFile| match goal {
+                    GoalFile::Minimise => Goal::Minimise,
+                    GoalFile::Maximise => Goal::Maximise,
+                };
+                let mut objectives = Vec::new();
+                let mut front_points = DEFAULT_FRONT_POINTS;
+                let (terms, goal) = if let Some(listed) = &objective.objectives {
+                    for (field, given) in [
+                        ("response", objective.response.is_some()),
+                        ("weights", objective.weights.is_some()),
+                        ("goal", objective.goal.is_some()),
+                    ] {
+                        if given {
+                            return Err(self.error(
+                                &format!("objective.{field}"),
+                                format!("`objectives:` gives each response its own goal and takes no `{field}:`; remove `{field}:`, or `objectives:` to optimise one response"),
+                            ));
                         }
-                        weights.iter().map(|(n, w)| (n.clone(), *w)).collect()
                     }
-                    _ => return Err(self.error("objective", "expected either `response:` or `weights:` (a map of response to weight), not both")),
+                    if listed.len() < 2 {
+                        return Err(self.error(
+                            "objective.objectives",
+                            format!("expected two or more objectives for a Pareto front, got {}; for one write `response:` and `goal:` instead", listed.len()),
+                        ));
+                    }
+                    for (i, term) in listed.iter().enumerate() {
+                        let at = format!("objective.objectives[{i}].response");
+                        known(&at, &term.response)?;
+                        if listed[..i].iter().any(|t| t.response == term.response) {
+                            return Err(self.error(
+                                &at,
+                                format!("`{}` is listed twice; a Pareto front needs different responses", term.response),
+                            ));
+                        }
+                        objectives.push((term.response.clone(), goal_of(term.goal)));
+                    }
+                    if let Some(n) = objective.front_points {
+                        if !(3..=100).contains(&n) {
+                            return Err(self.error(
+                                "objective.front_points",
+                                format!("expected 3 to 100 points on the Pareto front, got {n}"),
+                            ));
+                        }
+                        front_points = n;
+                    }
+                    let (first, goal) = objectives[0].clone();
+                    (vec![(first, 1.0)], goal)
+                } else {
+                    if objective.front_points.is_some() {
+                        return Err(self.error(
+                            "objective.front_points",
+                            "only a Pareto front has points; list two or more `objectives:` or remove `front_points:`",
+                        ));
+                    }
+                    let terms = match (&objective.response, &objective.weights) {
+                        (Some(response), None) => {
+                            known("objective.response", response)?;
+                            vec![(response.clone(), 1.0)]
+                        }
+                        (None, Some(weights)) if !weights.is_empty() => {
+                            for (name, weight) in weights {
+                                known(&format!("objective.weights.{name}"), name)?;
+                                if !weight.is_finite() {
+                                    return Err(self.error(&format!("objective.weights.{name}"), "expected a finite weight"));
+                                }
+                            }
+                            weights.iter().map(|(n, w)| (n.clone(), *w)).collect()
+                        }
+                        _ => return Err(self.error("objective", "expected either `response:` or `weights:` (a map of response to weight), not both")),
+                    };
+                    let Some(goal) = objective.goal else {
+                        return Err(self.error(
+                            "objective",
+                            "missing field `goal`; add `goal: maximise` or `goal: minimise`",
+                        ));
+                    };
+                    (terms, goal_of(goal))
                 };
                 let mut constraints = Vec::new();
                 for (i, c) in objective.constraints.iter().enumerate() {
@@ -951,11 +1041,10 @@ impl Checker<'_> {
                 }
                 Some(Objective {
                     terms,
-                    goal: match objective.goal {
-                        GoalFile::Minimise => Goal::Minimise,
-                        GoalFile::Maximise => Goal::Maximise,
-                    },
+                    goal,
                     constraints,
+                    objectives,
+                    front_points,
                 })
             }
         };

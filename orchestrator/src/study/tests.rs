@@ -453,3 +453,77 @@ fn materials_and_tolerances_make_a_noise_design_around_the_optimum() {
         "jobs/study.yaml:19:102: uncertainty.noise_design: a noise design varies parameters that are not factors, or factors' tolerances (`std:` without `mean:`); the study has neither"
     );
 }
+
+#[test]
+fn a_pareto_objective_lists_two_or_more_responses_each_with_its_goal() {
+    let with = |objective: &str| format!("{VALID}{objective}");
+    let pair = "  objectives:\n    - {response: discharge_rate, goal: maximise}\n    - {response: segregation_ratio, goal: minimise}\n";
+    let study = load(&with(&format!(
+        "objective:\n{pair}  constraints: [{{response: R1_mean, max: 0.01}}]\nrounds: 3\n"
+    )))
+    .unwrap();
+    let objective = study.objective.unwrap();
+    assert!(objective.is_pareto());
+    assert_eq!(objective.name(), "discharge_rate vs segregation_ratio");
+    assert_eq!(
+        objective.objectives,
+        [
+            ("discharge_rate".to_string(), Goal::Maximise),
+            ("segregation_ratio".to_string(), Goal::Minimise)
+        ]
+    );
+    assert_eq!(objective.front_points, DEFAULT_FRONT_POINTS);
+    assert_eq!(
+        objective.responses(),
+        ["discharge_rate", "segregation_ratio", "R1_mean"]
+    );
+    // The first objective stands for the front where one value is needed.
+    assert_eq!(objective.terms, [("discharge_rate".to_string(), 1.0)]);
+    assert_eq!(objective.goal, Goal::Maximise);
+    let study = load(&with(&format!("objective:\n{pair}  front_points: 40\n"))).unwrap();
+    assert_eq!(study.objective.unwrap().front_points, 40);
+
+    // `objectives:` excludes the single objective's fields.
+    assert_eq!(
+        error(&with(&format!("objective:\n{pair}  goal: maximise\n"))),
+        "jobs/study.yaml:22:9: objective.goal: `objectives:` gives each response its own goal and takes no `goal:`; remove `goal:`, or `objectives:` to optimise one response"
+    );
+    assert_eq!(
+        error(&with(&format!("objective:\n  response: discharge_rate\n{pair}"))),
+        "jobs/study.yaml:19:13: objective.response: `objectives:` gives each response its own goal and takes no `response:`; remove `response:`, or `objectives:` to optimise one response"
+    );
+    assert_eq!(
+        error(&with("objective:\n  objectives: [{response: discharge_rate, goal: maximise}]\n")),
+        "jobs/study.yaml:19:15: objective.objectives: expected two or more objectives for a Pareto front, got 1; for one write `response:` and `goal:` instead"
+    );
+    assert_eq!(
+        error(&with("objective:\n  objectives:\n    - {response: discharge_rate, goal: maximise}\n    - {response: flow, goal: minimise}\n")),
+        "jobs/study.yaml:21:18: objective.objectives[1].response: unknown response `flow`; expected one of: discharged_count, discharged_mass, discharge_rate, R1_mean, R2_mean, segregation_ratio, stream_radius, exit_speed, fine_fraction_outer_2, fine_fraction_outer_5, fine_fraction_outer_10, fine_fraction_outer_12"
+    );
+    assert_eq!(
+        error(&with("objective:\n  objectives:\n    - {response: discharge_rate, goal: maximise}\n    - {response: discharge_rate, goal: minimise}\n")),
+        "jobs/study.yaml:21:18: objective.objectives[1].response: `discharge_rate` is listed twice; a Pareto front needs different responses"
+    );
+    assert_eq!(
+        error(&with(&format!("objective:\n{pair}  front_points: 2\n"))),
+        "jobs/study.yaml:22:17: objective.front_points: expected 3 to 100 points on the Pareto front, got 2"
+    );
+    assert_eq!(
+        error(&with("objective: {response: discharge_rate, goal: maximise, front_points: 20}\n")),
+        "jobs/study.yaml:18:69: objective.front_points: only a Pareto front has points; list two or more `objectives:` or remove `front_points:`"
+    );
+    // Unknown keys in an entry are refused; each entry needs its goal.
+    assert_eq!(
+        error(&with("objective:\n  objectives:\n    - {response: discharge_rate, goal: maximise, weight: 2}\n    - {response: segregation_ratio, goal: minimise}\n")),
+        "jobs/study.yaml:20:50: objective.objectives[0].weight: unknown field `weight`, expected `response` or `goal`"
+    );
+    assert_eq!(
+        error(&with("objective:\n  objectives:\n    - {response: discharge_rate}\n    - {response: segregation_ratio, goal: minimise}\n")),
+        "jobs/study.yaml:20:7: objective.objectives[0]: missing field `goal`"
+    );
+    // A single objective still needs its goal.
+    assert_eq!(
+        error(&with("objective: {response: discharge_rate}\n")),
+        "jobs/study.yaml:18:12: objective: missing field `goal`; add `goal: maximise` or `goal: minimise`"
+    );
+}

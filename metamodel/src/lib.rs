@@ -18,6 +18,7 @@ pub mod pareto;
 pub mod propagate;
 pub mod propose;
 pub mod prune;
+pub mod robust;
 mod scaling;
 pub mod sobol;
 pub mod student;

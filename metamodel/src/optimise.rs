@@ -238,13 +238,14 @@ pub fn optimise_subject_to(
         Goal::Minimise => 1.0,
         Goal::Maximise => -1.0,
     };
-    let centre: Vec<f64> = (0..bounds.lower.len())
-        .map(|i| 0.5 * (bounds.lower[i] + bounds.upper[i]))
-        .collect();
-    let scale = f(&centre).abs().max(1e-12);
+    // Each function's typical size over the box, so that the objective and every
+    // violation are compared in their own units (a function that is zero at the centre
+    // must not make its term huge).
+    let probes = magnitude_probes(bounds, seed);
+    let scale = magnitude(f, &probes);
     let constraint_scales: Vec<f64> = constraints
         .iter()
-        .map(|c| (c.g)(&centre).abs().max(1e-12))
+        .map(|c| magnitude(c.g, &probes))
         .collect();
     let penalised = |x: &[f64]| {
         let penalty: f64 = constraints
@@ -266,6 +267,51 @@ pub fn optimise_subject_to(
         },
         feasible,
     )
+}
+
+/// Points at which [`magnitude`] looks: the centre, the corners (up to 8 factors) and
+/// 20 seeded random points of `bounds`.
+fn magnitude_probes(bounds: &BoxBounds, seed: u64) -> Vec<Vec<f64>> {
+    let k = bounds.lower.len();
+    let mut points = vec![(0..k)
+        .map(|i| 0.5 * (bounds.lower[i] + bounds.upper[i]))
+        .collect::<Vec<f64>>()];
+    if k <= 8 {
+        for corner in 0..(1usize << k) {
+            points.push(
+                (0..k)
+                    .map(|i| {
+                        if corner >> i & 1 == 1 {
+                            bounds.upper[i]
+                        } else {
+                            bounds.lower[i]
+                        }
+                    })
+                    .collect(),
+            );
+        }
+    }
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x6d61_676e);
+    for _ in 0..20 {
+        points.push(
+            (0..k)
+                .map(|i| rng.random_range(bounds.lower[i]..=bounds.upper[i]))
+                .collect(),
+        );
+    }
+    points
+}
+
+/// A function's typical size: the largest of its value at the first probe (the centre)
+/// and its change from there to any other probe; at least 10^-12.
+fn magnitude(f: &dyn Fn(&[f64]) -> f64, probes: &[Vec<f64>]) -> f64 {
+    let centre = f(&probes[0]);
+    probes[1..]
+        .iter()
+        .map(|p| (f(p) - centre).abs())
+        .filter(|v| v.is_finite())
+        .fold(centre.abs(), f64::max)
+        .max(1e-12)
 }
 
 /// Best local minimum of projected gradient descent from corners, centre and random starts.
@@ -457,5 +503,31 @@ mod tests {
         }
         assert!(found.value <= best + 1e-8, "{found:?} vs {best}");
         assert!(found.x[0] < 0.0);
+    }
+
+    #[test]
+    fn a_constraint_binds_even_when_the_objective_is_zero_at_the_centre() {
+        // Maximise x0 subject to x0 + x1 ≤ 0.5 with x1 fixed at 0: x0 = 0.5. The
+        // objective is 0 at the centre, which once made it outweigh the penalty.
+        let f = |x: &[f64]| x[0];
+        let g = |x: &[f64]| x[0] + x[1];
+        let bounds = BoxBounds {
+            lower: vec![-1.0, 0.0],
+            upper: vec![1.0, 0.0],
+        };
+        let (found, feasible) = optimise_subject_to(
+            &f,
+            false,
+            &[Constraint {
+                g: &g,
+                min: None,
+                max: Some(0.5),
+            }],
+            Goal::Maximise,
+            &bounds,
+            1,
+        );
+        assert!(feasible);
+        assert!((found.x[0] - 0.5).abs() < 1e-3, "{found:?}");
     }
 }

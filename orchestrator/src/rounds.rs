@@ -12,10 +12,11 @@ use std::path::Path;
 
 use orch_metamodel::optimise::BoxBounds;
 use orch_metamodel::propose::{converged, least_certain, shrink_around};
+use orch_metamodel::robust::Scenarios;
 use orch_metamodel::surrogate::{choose, Choice, Surrogate};
 use orch_metamodel::{
-    lack_of_fit, optimise_subject_to, propagate, propagate_with_error, propose_batch, BasisKind,
-    Constraint, Design, Distribution, FactorRange, Goal,
+    lack_of_fit, optimise_subject_to, propagate, propagate_with_error, propose_batch,
+    student_t_quantile, BasisKind, Constraint, Design, Distribution, FactorRange, Goal,
 };
 
 use crate::store::{
@@ -25,6 +26,15 @@ use crate::study::{mean_of, DesignPoint, Objective, Study};
 use crate::surfaces;
 
 pub mod pareto;
+
+/// A function of the coded factors: a constrained response's surface, or a quantile of
+/// it under the uncertain inputs.
+type Predictor<'a> = Box<dyn Fn(&[f64]) -> f64 + 'a>;
+
+/// Scenarios of the uncertain inputs every candidate design is judged on by a robust
+/// objective or a probabilistic bound (the final probabilities use the study's
+/// `uncertainty.samples`, at most 10^5).
+pub const ROBUST_SCENARIOS: usize = 256;
 
 /// What happened after a round.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -265,13 +275,45 @@ async fn analyse(
         bounds.lower[*index] = centre;
         bounds.upper[*index] = centre;
     }
-    // One closure per constrained surface (all of one type), then the constraints on them.
-    let predictors: Vec<_> = objective
+    // Robust design and probabilistic bounds judge every candidate on one set of
+    // scenarios of the uncertain factors and tolerances (common random numbers).
+    let tolerances: Vec<(usize, f64)> = study
+        .uncertainty
+        .iter()
+        .flat_map(|u| u.noise.iter().flat_map(|n| n.tolerances.iter().copied()))
+        .collect();
+    let scenarios = (objective.robust.is_some()
+        || objective.probabilities.iter().any(Option::is_some))
+    .then(|| {
+        Scenarios::draw(
+            &uncertain,
+            &tolerances,
+            &ranges,
+            ROBUST_SCENARIOS,
+            study.seed.wrapping_add(0x5eed),
+        )
+        .ok()
+    })
+    .flatten();
+    // One predictor per constrained response: its value, or for a probabilistic bound
+    // the quantile that must stay inside it (normal approximation over the scenarios).
+    let predictors: Vec<Predictor<'_>> = objective
         .constraints
         .iter()
-        .map(|(response, _, _)| {
+        .zip(&objective.probabilities)
+        .map(|((response, min, _), probability)| {
             let fit = &surfaces[response];
-            move |x: &[f64]| fit.predict(x)
+            match (probability, &scenarios) {
+                (Some(p), Some(scenarios)) => {
+                    let z = student_t_quantile(1.0 - p, 1e9);
+                    let sign = if min.is_some() { -1.0 } else { 1.0 };
+                    Box::new(move |x: &[f64]| {
+                        let (mean, std) = scenarios.moments(&|y| fit.predict(y), x);
+                        mean + sign * z * std
+                    }) as Box<dyn Fn(&[f64]) -> f64>
+                }
+                _ => Box::new(move |x: &[f64]| fit.predict(x)),
+            }
         })
         .collect();
     let constraints: Vec<Constraint> = objective
@@ -279,23 +321,79 @@ async fn analyse(
         .iter()
         .zip(&predictors)
         .map(|((_, min, max), g)| Constraint {
-            g,
+            g: g.as_ref(),
             min: *min,
             max: *max,
         })
         .collect();
-    let exact = objective
-        .responses()
-        .iter()
-        .all(|r| surfaces[r].is_quadratic());
-    let (optimum, feasible) = optimise_subject_to(
-        &value,
+    let robust = objective.robust.zip(scenarios.as_ref());
+    let robust_value = |x: &[f64]| match robust {
+        Some((k, scenarios)) => {
+            let (mean, std) = scenarios.moments(&value, x);
+            match objective.goal {
+                Goal::Maximise => mean - k * std,
+                Goal::Minimise => mean + k * std,
+            }
+        }
+        None => value(x),
+    };
+    let exact = scenarios.is_none()
+        && objective
+            .responses()
+            .iter()
+            .all(|r| surfaces[r].is_quadratic());
+    let (mut optimum, feasible) = optimise_subject_to(
+        &robust_value,
         exact,
         &constraints,
         objective.goal,
         &bounds,
         study.seed,
     );
+    // What a robust optimum gives up for its robustness, and each probabilistic
+    // bound's Monte Carlo probability of being passed there.
+    let mut robustness = Vec::new();
+    if let Some((k, scenarios)) = robust {
+        let (mean, std) = scenarios.moments(&value, &optimum.x);
+        robustness.push(format!(
+            "robust optimum: mean {mean:.6}, std {std:.6} under the uncertain inputs ({} scenarios), mean {} {k}·std = {:.6}",
+            scenarios.len(),
+            if objective.goal == Goal::Maximise { "−" } else { "+" },
+            optimum.value
+        ));
+        optimum.value = value(&optimum.x);
+    }
+    if let Some(samples) = scenarios.as_ref().and_then(|_| {
+        let samples = study
+            .uncertainty
+            .as_ref()
+            .map_or(0, |u| u.samples)
+            .min(100_000);
+        Scenarios::draw(
+            &uncertain,
+            &tolerances,
+            &ranges,
+            samples.max(ROBUST_SCENARIOS),
+            study.seed.wrapping_add(0xfa11),
+        )
+        .ok()
+    }) {
+        for ((response, min, max), probability) in
+            objective.constraints.iter().zip(&objective.probabilities)
+        {
+            let (Some(allowed), Some(limit)) = (probability, max.or(*min)) else {
+                continue;
+            };
+            let fit = &surfaces[response];
+            let above = max.is_some();
+            let (p, se) = samples.exceedance(&|x| fit.predict(x), &optimum.x, limit, above);
+            robustness.push(format!(
+                "P[{response} {} {limit}] = {p:.4} ± {se:.4} ({} samples; allowed {allowed})",
+                if above { ">" } else { "<" },
+                samples.len()
+            ));
+        }
+    }
     let natural: Vec<f64> = optimum
         .x
         .iter()
@@ -344,14 +442,20 @@ async fn analyse(
         .constraints
         .iter()
         .zip(&predictors)
-        .map(|((response, min, max), g)| {
+        .zip(&objective.probabilities)
+        .map(|(((response, min, max), g), probability)| {
             let bound = match (min, max) {
                 (Some(min), Some(max)) => format!("bound [{min}, {max}]"),
                 (Some(min), None) => format!("bound ≥ {min}"),
                 (None, Some(max)) => format!("bound ≤ {max}"),
                 (None, None) => "no bound".to_string(),
             };
-            format!("{response} = {:.6} ({bound})", g(&optimum.x))
+            let what = match probability {
+                Some(p) if min.is_some() => format!("{response}'s {p} quantile"),
+                Some(p) => format!("{response}'s {} quantile", 1.0 - p),
+                None => response.clone(),
+            };
+            format!("{what} = {:.6} ({bound})", g(&optimum.x))
         })
         .collect();
     if !feasible {
@@ -362,11 +466,15 @@ async fn analyse(
         );
         return Ok(record);
     }
-    let constrained = if at_bounds.is_empty() {
+    let mut constrained = if at_bounds.is_empty() {
         String::new()
     } else {
         format!("; at the optimum {}", at_bounds.join(", "))
     };
+    for line in &robustness {
+        constrained.push_str("; ");
+        constrained.push_str(line);
+    }
 
     let previous = if round > 0 {
         store
@@ -1166,5 +1274,91 @@ rounds: 2
             .filter(|p| (p.coded[0] - 0.3).hypot(p.coded[1] + 0.4) < 0.5)
             .count();
         assert!(near >= 1, "{points:?}");
+    }
+
+    /// The outlet is designed; the amplitude is uncertain, N(0.0004, 0.0001) m, which is
+    /// 0.25 in coded units around the centre of its range.
+    fn robust_study(objective: &str) -> String {
+        format!(
+            "\
+name: robust
+solver: liggghts
+factors:
+  - {{name: outlet_diameter, min: 0.020, max: 0.028}}
+  - {{name: amplitude, min: 0.0, max: 0.0008}}
+design: {{type: central_composite, alpha: face_centred, center_points: 3}}
+objective: {objective}
+uncertainty:
+  samples: 100000
+  seed: 2
+  parameters: [{{name: amplitude, distribution: normal, mean: 0.0004, std: 0.0001}}]
+"
+        )
+    }
+
+    #[tokio::test]
+    async fn a_robust_objective_trades_the_mean_for_a_smaller_spread() {
+        // rate = x0 − x0²/2 + x0·x1: at the amplitude's mean the best outlet is the box's
+        // edge (x0 = 1), but the spread is 0.25·|x0|, so mean − 2·std = x0 − x0²/2 − 0.5·x0
+        // peaks at x0 = 0.5.
+        let text = robust_study("{response: discharge_rate, goal: maximise, robust: {k: 2}}");
+        let run = testing::round_run(&text, |c, _| JobResults {
+            responses: vec![(
+                "discharge_rate".into(),
+                c[0] - 0.5 * c[0] * c[0] + c[0] * c[1],
+            )],
+            series: vec![],
+            note: None,
+        })
+        .await;
+        advance(&run.store, run.id, &run.study, &run.runs_dir())
+            .await
+            .unwrap();
+        let round = &run.store.rounds(run.id).await.unwrap()[0];
+        let (_, _, value, natural) = round.optimum.clone().unwrap();
+        let x0 = (natural[0] - 0.024) / 0.004;
+        assert!((x0 - 0.5).abs() < 0.05, "x0 = {x0}");
+        // The stored value is the surface's at the robust optimum (amplitude at its mean).
+        assert!((value - (x0 - 0.5 * x0 * x0)).abs() < 1e-6, "{value}");
+        let note = &round.decision.as_ref().unwrap().1;
+        assert!(note.contains("robust optimum: mean "), "{note}");
+        assert!(note.contains("256 scenarios), mean − 2·std = "), "{note}");
+    }
+
+    #[tokio::test]
+    async fn a_probabilistic_bound_holds_with_its_probability_at_the_optimum() {
+        // Maximise x0 subject to P[x0 + x1 > 0.5] ≤ 0.05 with x1 ~ N(0, 0.25) (coded):
+        // x0 + 1.645·0.25 ≤ 0.5, so x0 = 0.089, where the probability is 5 %.
+        let text = robust_study(
+            "{response: discharge_rate, goal: maximise, constraints: [{response: segregation_ratio, max: 0.5, probability: 0.05}]}",
+        );
+        let run = testing::round_run(&text, |c, _| JobResults {
+            responses: vec![
+                ("discharge_rate".into(), c[0]),
+                ("segregation_ratio".into(), c[0] + c[1]),
+            ],
+            series: vec![],
+            note: None,
+        })
+        .await;
+        advance(&run.store, run.id, &run.study, &run.runs_dir())
+            .await
+            .unwrap();
+        let round = &run.store.rounds(run.id).await.unwrap()[0];
+        let x0 = (round.optimum.as_ref().unwrap().3[0] - 0.024) / 0.004;
+        assert!(
+            (x0 - 0.0888).abs() < 0.03,
+            "x0 = {x0}: {:?}",
+            round.decision
+        );
+        let note = &round.decision.as_ref().unwrap().1;
+        let p: f64 = note
+            .split("P[segregation_ratio > 0.5] = ")
+            .nth(1)
+            .and_then(|rest| rest.split(' ').next())
+            .and_then(|p| p.parse().ok())
+            .unwrap_or_else(|| panic!("{note}"));
+        assert!((p - 0.05).abs() < 0.015, "{note}");
+        assert!(note.contains("(100000 samples; allowed 0.05)"), "{note}");
     }
 }

@@ -245,6 +245,18 @@ pub struct ObjectiveFile {
     /// Bounds on other responses' surfaces.
     #[serde(default)]
     pub constraints: Vec<ConstraintFile>,
+    /// Robust design: optimise `mean ∓ k·std` of the objective under the uncertain
+    /// factors and tolerances instead of its value at their means.
+    #[serde(default)]
+    pub robust: Option<RobustFile>,
+}
+
+/// The `objective.robust:` section.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RobustFile {
+    /// Standard deviations taken off the mean (maximise) or added to it (minimise).
+    pub k: f64,
 }
 
 /// One entry of `objectives:`: a response and its goal.
@@ -269,6 +281,10 @@ pub struct ConstraintFile {
     /// Largest allowed value.
     #[serde(default)]
     pub max: Option<f64>,
+    /// A probabilistic bound: the response may pass `min`/`max` with at most this
+    /// probability under the uncertain factors and tolerances.
+    #[serde(default)]
+    pub probability: Option<f64>,
 }
 
 /// Polynomial bases.

@@ -107,6 +107,12 @@ pub struct Objective {
     pub objectives: Vec<(String, Goal)>,
     /// Points asked of the Pareto front (3 to 100); unused without `objectives`.
     pub front_points: usize,
+    /// Robust design: `k` of `mean ∓ k·std` under the uncertain factors and tolerances.
+    pub robust: Option<f64>,
+    /// Per constraint (same order), the probability with which it may be passed under
+    /// the uncertain factors and tolerances; `None` for a bound on the value at their
+    /// means.
+    pub probabilities: Vec<Option<f64>>,
 }
 
 /// Points asked of a Pareto front when `front_points:` is not given.
@@ -1031,20 +1037,55 @@ impl Checker<'_> {
                     (terms, goal_of(goal))
                 };
                 let mut constraints = Vec::new();
+                let mut probabilities = Vec::new();
                 for (i, c) in objective.constraints.iter().enumerate() {
                     let at = format!("objective.constraints[{i}]");
                     known(&format!("{at}.response"), &c.response)?;
                     if c.min.is_none() && c.max.is_none() {
                         return Err(self.error(&at, "expected `min:`, `max:` or both"));
                     }
+                    if let Some(p) = c.probability {
+                        if !(p > 0.0 && p <= 0.5) {
+                            return Err(self.error(
+                                &format!("{at}.probability"),
+                                format!("expected a probability of passing the bound in (0, 0.5], got {p}"),
+                            ));
+                        }
+                        if c.min.is_some() && c.max.is_some() {
+                            return Err(self.error(
+                                &format!("{at}.probability"),
+                                "a probabilistic bound takes `min:` or `max:`, not both; write two constraints",
+                            ));
+                        }
+                    }
                     constraints.push((c.response.clone(), c.min, c.max));
+                    probabilities.push(c.probability);
                 }
+                let robust = match &objective.robust {
+                    Some(r) if !(r.k.is_finite() && r.k > 0.0 && r.k <= 6.0) => {
+                        return Err(self.error(
+                            "objective.robust.k",
+                            format!(
+                                "expected a number of standard deviations in (0, 6], got {}",
+                                r.k
+                            ),
+                        ))
+                    }
+                    Some(_) if !objectives.is_empty() => return Err(self.error(
+                        "objective.robust",
+                        "a Pareto front is not made robust; remove `robust:` or list one objective",
+                    )),
+                    Some(r) => Some(r.k),
+                    None => None,
+                };
                 Some(Objective {
                     terms,
                     goal,
                     constraints,
                     objectives,
                     front_points,
+                    robust,
+                    probabilities,
                 })
             }
         };
@@ -1142,6 +1183,24 @@ impl Checker<'_> {
                 Some(config)
             }
         };
+        if let Some(objective) = &objective {
+            let spread = uncertainty.as_ref().is_some_and(|u| {
+                !u.parameters.is_empty()
+                    || u.noise.as_ref().is_some_and(|n| !n.tolerances.is_empty())
+            });
+            let probabilistic = objective.probabilities.iter().position(Option::is_some);
+            let field = match (objective.robust.is_some(), probabilistic) {
+                (true, _) => Some("objective.robust".to_string()),
+                (false, Some(i)) => Some(format!("objective.constraints[{i}].probability")),
+                (false, None) => None,
+            };
+            if let Some(field) = field.filter(|_| !spread) {
+                return Err(self.error(
+                    &field,
+                    "needs a spread to be robust against: an uncertain factor (with `mean:`) or a factor's tolerance (`std:` only) in `uncertainty.parameters` (materials that are not factors are outside the surfaces; their noise design runs after the rounds)",
+                ));
+            }
+        }
         self.check_job_count(
             points.len(),
             metamodel.test_points,

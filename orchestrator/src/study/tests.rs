@@ -527,3 +527,29 @@ fn a_pareto_objective_lists_two_or_more_responses_each_with_its_goal() {
         "jobs/study.yaml:18:12: objective: missing field `goal`; add `goal: maximise` or `goal: minimise`"
     );
 }
+
+#[test]
+fn robust_objectives_and_probabilistic_bounds_need_a_spread() {
+    let with = |objective: &str| format!("{VALID}objective: {objective}\n");
+    let robust = "{response: discharge_rate, goal: maximise, robust: {k: 2}}";
+    assert_eq!(
+        error(&with(robust)),
+        "jobs/study.yaml:18:63: objective.robust: needs a spread to be robust against: an uncertain factor (with `mean:`) or a factor's tolerance (`std:` only) in `uncertainty.parameters` (materials that are not factors are outside the surfaces; their noise design runs after the rounds)"
+    );
+    let tolerance =
+        "uncertainty: {parameters: [{name: valve_gap, distribution: normal, std: 0.0002}]}\n";
+    let study = load(&format!("{}{tolerance}", with(robust))).unwrap();
+    assert_eq!(study.objective.unwrap().robust, Some(2.0));
+    assert_eq!(
+        error(&with("{response: discharge_rate, goal: maximise, robust: {k: 0}}")),
+        "jobs/study.yaml:18:67: objective.robust.k: expected a number of standard deviations in (0, 6], got 0"
+    );
+    let bounded = "{response: discharge_rate, goal: maximise, constraints: [{response: R1_mean, max: 0.01, probability: 0.7}]}";
+    assert_eq!(
+        error(&format!("{}{tolerance}", with(bounded))),
+        "jobs/study.yaml:18:113: objective.constraints[0].probability: expected a probability of passing the bound in (0, 0.5], got 0.7"
+    );
+    let both = "{response: discharge_rate, goal: maximise, constraints: [{response: R1_mean, min: 0.001, max: 0.01, probability: 0.05}]}";
+    assert!(error(&format!("{}{tolerance}", with(both)))
+        .ends_with("objective.constraints[0].probability: a probabilistic bound takes `min:` or `max:`, not both; write two constraints"));
+}

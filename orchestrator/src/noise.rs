@@ -143,8 +143,22 @@ pub fn study_text(
         .and_then(Value::as_mapping_mut)
     {
         // Every factor is held at its mean: the "optimum" is the noise box's centre,
-        // and bounds on responses there are reported, not enforced.
-        objective.remove(key("constraints"));
+        // and bounds on responses there are reported, not enforced; a front or a
+        // robust objective has nothing to trade there, so the first objective is
+        // propagated as is.
+        for field in ["constraints", "robust", "front_points"] {
+            objective.remove(key(field));
+        }
+        let first = objective
+            .remove(key("objectives"))
+            .and_then(|list| list.as_sequence().and_then(|l| l.first().cloned()));
+        if let Some(first) = first {
+            for field in ["response", "goal"] {
+                if let Some(value) = first.get(field) {
+                    objective.insert(key(field), value.clone());
+                }
+            }
+        }
     }
     let body = serde_yaml_ng::to_string(&doc).map_err(|e| e.to_string())?;
     Ok(format!("{HEADER}{parent_name}.\n{body}"))
@@ -304,7 +318,10 @@ factors:
 fixed: {n_particles: 1500, outlet_diameter: 0.020}
 design: {type: central_composite, alpha: face_centred}
 responses: [discharge_rate]
-objective: {response: discharge_rate, goal: maximise, constraints: [{response: segregation_ratio, max: 2}]}
+objective:
+  objectives: [{response: discharge_rate, goal: maximise}, {response: segregation_ratio, goal: minimise}]
+  front_points: 5
+  constraints: [{response: segregation_ratio, max: 2}]
 next_round: {shrink: 0.5}
 rounds: 2
 uncertainty:
@@ -350,7 +367,10 @@ uncertainty:
         assert_eq!((uncertainty.samples, uncertainty.seed), (1000, 9));
         // A central composite over two: 9 runs; no constraints, no next round.
         assert_eq!(child.points.len(), 9);
-        assert!(child.objective.as_ref().unwrap().constraints.is_empty());
+        // One objective, the front's first, without constraints.
+        let objective = child.objective.as_ref().unwrap();
+        assert!(objective.constraints.is_empty() && objective.objectives.is_empty());
+        assert_eq!(objective.name(), "discharge_rate");
         // Written again from the same optimum, it is the same study (same hash).
         let again = study_text(&parent, "cone", noise, &[0.004, -0.002]).unwrap();
         assert_eq!(again, text);

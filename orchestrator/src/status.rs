@@ -615,12 +615,17 @@ fn model_name(fit: &StoredFit) -> String {
 pub fn fits_report(round: &StoredRound, factors: &[String], runs: &[Run]) -> String {
     let mut out = String::new();
     for fit in &round.fits {
+        // A polynomial's terms are named in its basis; Kriging has none.
+        let basis = if fit.terms.is_empty() && fit.error.is_none() {
+            String::new()
+        } else {
+            format!("{} basis, ", fit.basis)
+        };
         out.push_str(&format!(
-            "round {}, {} ({}, {} basis, {} runs)\n",
+            "round {}, {} ({}, {basis}{} runs)\n",
             round.round,
             fit.response,
             model_name(fit),
-            fit.basis,
             fit.runs
         ));
         if let Some(error) = &fit.error {
@@ -727,10 +732,11 @@ fn choice_lines(fit: &StoredFit, factors: &[String]) -> String {
         );
         for c in &fit.candidates {
             out.push_str(&format!(
-                "    {} {:<40} {:>3} parameters, leave-one-out RMSE {}{}\n",
+                "    {} {:<40} {:>3} parameter{}, leave-one-out RMSE {}{}\n",
                 if c.chosen { "*" } else { " " },
                 c.model,
                 c.parameters,
+                if c.parameters == 1 { " " } else { "s" },
                 c.loo_rmse
                     .map(|v| format!("{v:.4e}"))
                     .unwrap_or_else(|| "–".into()),

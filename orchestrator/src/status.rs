@@ -340,9 +340,9 @@ fn front_lines(round: &StoredRound, names: &[String]) -> String {
     }
     let Some(point) = round.front.iter().find(|p| p.compromise) else {
         return format!(
-            "  Pareto front of {} points
+            "  Pareto front of {}
 ",
-            round.front.len()
+            points(round.front.len())
         );
     };
     let objectives: Vec<String> = point
@@ -356,9 +356,9 @@ fn front_lines(round: &StoredRound, names: &[String]) -> String {
         .map(|(n, v)| format!("{n} = {v:.6}"))
         .collect();
     format!(
-        "  Pareto front of {} points; compromise point: {} at {}
+        "  Pareto front of {}; compromise point: {} at {}
 ",
-        round.front.len(),
+        points(round.front.len()),
         objectives.join(", "),
         factors.join(", ")
     )
@@ -402,8 +402,8 @@ pub fn recommendation(
     let compromise = round.front.iter().find(|p| p.compromise);
     let predicted = match compromise {
         Some(point) => format!(
-            "compromise point of a Pareto front of {} points: {} predicted there",
-            round.front.len(),
+            "compromise point of a Pareto front of {}: {} predicted there",
+            points(round.front.len()),
             point
                 .objectives
                 .iter()
@@ -601,6 +601,15 @@ pub fn rounds_summary(
         }
     }
     out
+}
+
+/// `1 point` or `n points`.
+pub fn points(n: usize) -> String {
+    if n == 1 {
+        "1 point".into()
+    } else {
+        format!("{n} points")
+    }
 }
 
 /// The surrogate's name, or (fits stored before the model choice) its basis and order.

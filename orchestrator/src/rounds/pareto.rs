@@ -268,8 +268,8 @@ pub(super) fn analyse_front(
         .map(|((r, _), v)| format!("{r} = {v:.6}"))
         .collect();
     let summary = format!(
-        "Pareto front of {} points; compromise point {}",
-        front.len(),
+        "Pareto front of {}; compromise point {}",
+        crate::status::points(front.len()),
         at_point.join(", ")
     );
     let round = record.round;

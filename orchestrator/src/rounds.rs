@@ -10,31 +10,23 @@
 use std::collections::HashMap;
 use std::path::Path;
 
-use orch_metamodel::optimise::BoxBounds;
-use orch_metamodel::propose::{converged, least_certain, shrink_around};
-use orch_metamodel::robust::Scenarios;
+use orch_metamodel::propose::converged;
 use orch_metamodel::surrogate::{choose, Choice, Surrogate};
-use orch_metamodel::{
-    lack_of_fit, optimise_subject_to, propagate, propagate_with_error, propose_batch,
-    student_t_quantile, BasisKind, Constraint, Design, Distribution, FactorRange, Goal,
-};
+use orch_metamodel::{lack_of_fit, BasisKind, Goal};
 
 use crate::store::{
     CandidateScore, Decision, FitRecord, JobState, LackOfFitRow, RoundRecord, Store, StoreError,
 };
-use crate::study::{mean_of, DesignPoint, Objective, Study};
+use crate::study::{Objective, Study};
 use crate::surfaces;
 
+mod next;
+mod objective;
+mod optimum;
 pub mod pareto;
 
-/// A function of the coded factors: a constrained response's surface, or a quantile of
-/// it under the uncertain inputs.
-type Predictor<'a> = Box<dyn Fn(&[f64]) -> f64 + 'a>;
-
-/// Scenarios of the uncertain inputs every candidate design is judged on by a robust
-/// objective or a probabilistic bound (the final probabilities use the study's
-/// `uncertainty.samples`, at most 10^5).
-pub const ROBUST_SCENARIOS: usize = 256;
+use objective::{Inputs, ObjectiveSurface};
+pub use optimum::ROBUST_SCENARIOS;
 
 /// What happened after a round.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -102,9 +94,11 @@ pub async fn advance(
 
 /// Coded points and observed values of one response: the design runs the round fits
 /// (its own and earlier rounds' inside its box) and its own held-out test runs.
-struct Observed {
-    design: (Vec<Vec<f64>>, Vec<f64>),
-    test: (Vec<Vec<f64>>, Vec<f64>),
+pub(crate) struct Observed {
+    /// `(coded points, values)` of the design runs.
+    pub design: (Vec<Vec<f64>>, Vec<f64>),
+    /// `(coded points, values)` of the held-out test runs.
+    pub test: (Vec<Vec<f64>>, Vec<f64>),
 }
 
 async fn observed(
@@ -159,9 +153,7 @@ async fn analyse(
     round: i64,
 ) -> Result<RoundRecord, StoreError> {
     let ranges = store.round_ranges(study_id, round).await?;
-    let limits: Vec<FactorRange> = study.factors.iter().map(|f| f.range).collect();
     let names: Vec<String> = study.factors.iter().map(|f| f.name.clone()).collect();
-    let k = names.len();
     let basis_name = match study.metamodel.basis {
         BasisKind::Legendre => "legendre",
         BasisKind::Monomial => "monomial",
@@ -232,168 +224,13 @@ async fn analyse(
         pareto::analyse_front(study, objective, &ranges, &surfaces, previous, &mut record);
         return Ok(record);
     }
-    let value = |x: &[f64]| {
-        objective
-            .terms
-            .iter()
-            .map(|(r, w)| w * surfaces[r].predict(x))
-            .sum::<f64>()
+    let surface = ObjectiveSurface {
+        objective,
+        surfaces: &surfaces,
     };
-    // The objective's standard error as an estimate of the mean response, and its 95 %
-    // prediction interval for a new run: the weighted sum of independent surrogates.
-    let combine = |each: &dyn Fn(&Surrogate) -> Option<f64>| {
-        objective
-            .terms
-            .iter()
-            .map(|(r, w)| each(&surfaces[r]).map(|s| (w * s).powi(2)))
-            .sum::<Option<f64>>()
-            .map(f64::sqrt)
-    };
-    let mean_std = |x: &[f64]| combine(&|s| s.mean_std(x));
-    let prediction_interval = |x: &[f64]| -> Option<(f64, f64)> {
-        if let [(response, weight)] = objective.terms.as_slice() {
-            let i = surfaces[response].prediction_interval(x, 0.95)?;
-            let (a, b) = (weight * i.low, weight * i.high);
-            return Some((a.min(b), a.max(b)));
-        }
-        let std = combine(&|s| s.prediction_interval(x, 0.95).map(|i| i.std_error))?;
-        let z = 1.959_963_984_540_054;
-        Some((value(x) - z * std, value(x) + z * std))
-    };
-
-    // Uncertain factors are held at their mean while the design factors are optimised.
-    let mut bounds = BoxBounds::coded(k);
-    let uncertain: Vec<(usize, Distribution)> = study
-        .uncertainty
-        .iter()
-        .flat_map(|u| u.parameters.iter().copied())
-        .collect();
-    for (index, distribution) in &uncertain {
-        let centre = ranges[*index]
-            .to_coded(mean_of(distribution))
-            .clamp(-1.0, 1.0);
-        bounds.lower[*index] = centre;
-        bounds.upper[*index] = centre;
-    }
-    // Robust design and probabilistic bounds judge every candidate on one set of
-    // scenarios of the uncertain factors and tolerances (common random numbers).
-    let tolerances: Vec<(usize, f64)> = study
-        .uncertainty
-        .iter()
-        .flat_map(|u| u.noise.iter().flat_map(|n| n.tolerances.iter().copied()))
-        .collect();
-    let scenarios = (objective.robust.is_some()
-        || objective.probabilities.iter().any(Option::is_some))
-    .then(|| {
-        Scenarios::draw(
-            &uncertain,
-            &tolerances,
-            &ranges,
-            ROBUST_SCENARIOS,
-            study.seed.wrapping_add(0x5eed),
-        )
-        .ok()
-    })
-    .flatten();
-    // One predictor per constrained response: its value, or for a probabilistic bound
-    // the quantile that must stay inside it (normal approximation over the scenarios).
-    let predictors: Vec<Predictor<'_>> = objective
-        .constraints
-        .iter()
-        .zip(&objective.probabilities)
-        .map(|((response, min, _), probability)| {
-            let fit = &surfaces[response];
-            match (probability, &scenarios) {
-                (Some(p), Some(scenarios)) => {
-                    let z = student_t_quantile(1.0 - p, 1e9);
-                    let sign = if min.is_some() { -1.0 } else { 1.0 };
-                    Box::new(move |x: &[f64]| {
-                        let (mean, std) = scenarios.moments(&|y| fit.predict(y), x);
-                        mean + sign * z * std
-                    }) as Box<dyn Fn(&[f64]) -> f64>
-                }
-                _ => Box::new(move |x: &[f64]| fit.predict(x)),
-            }
-        })
-        .collect();
-    let constraints: Vec<Constraint> = objective
-        .constraints
-        .iter()
-        .zip(&predictors)
-        .map(|((_, min, max), g)| Constraint {
-            g: g.as_ref(),
-            min: *min,
-            max: *max,
-        })
-        .collect();
-    let robust = objective.robust.zip(scenarios.as_ref());
-    let robust_value = |x: &[f64]| match robust {
-        Some((k, scenarios)) => {
-            let (mean, std) = scenarios.moments(&value, x);
-            match objective.goal {
-                Goal::Maximise => mean - k * std,
-                Goal::Minimise => mean + k * std,
-            }
-        }
-        None => value(x),
-    };
-    let exact = scenarios.is_none()
-        && objective
-            .responses()
-            .iter()
-            .all(|r| surfaces[r].is_quadratic());
-    let (mut optimum, feasible) = optimise_subject_to(
-        &robust_value,
-        exact,
-        &constraints,
-        objective.goal,
-        &bounds,
-        study.seed,
-    );
-    // What a robust optimum gives up for its robustness, and each probabilistic
-    // bound's Monte Carlo probability of being passed there.
-    let mut robustness = Vec::new();
-    if let Some((k, scenarios)) = robust {
-        let (mean, std) = scenarios.moments(&value, &optimum.x);
-        robustness.push(format!(
-            "robust optimum: mean {mean:.6}, std {std:.6} under the uncertain inputs ({} scenarios), mean {} {k}·std = {:.6}",
-            scenarios.len(),
-            if objective.goal == Goal::Maximise { "−" } else { "+" },
-            optimum.value
-        ));
-        optimum.value = value(&optimum.x);
-    }
-    if let Some(samples) = scenarios.as_ref().and_then(|_| {
-        let samples = study
-            .uncertainty
-            .as_ref()
-            .map_or(0, |u| u.samples)
-            .min(100_000);
-        Scenarios::draw(
-            &uncertain,
-            &tolerances,
-            &ranges,
-            samples.max(ROBUST_SCENARIOS),
-            study.seed.wrapping_add(0xfa11),
-        )
-        .ok()
-    }) {
-        for ((response, min, max), probability) in
-            objective.constraints.iter().zip(&objective.probabilities)
-        {
-            let (Some(allowed), Some(limit)) = (probability, max.or(*min)) else {
-                continue;
-            };
-            let fit = &surfaces[response];
-            let above = max.is_some();
-            let (p, se) = samples.exceedance(&|x| fit.predict(x), &optimum.x, limit, above);
-            robustness.push(format!(
-                "P[{response} {} {limit}] = {p:.4} ± {se:.4} ({} samples; allowed {allowed})",
-                if above { ">" } else { "<" },
-                samples.len()
-            ));
-        }
-    }
+    let inputs = Inputs::of(study, &ranges);
+    let found = optimum::find(study, &surface, &inputs, &ranges);
+    let optimum = found.optimum;
     let natural: Vec<f64> = optimum
         .x
         .iter()
@@ -401,77 +238,31 @@ async fn analyse(
         .map(|(c, r)| r.to_natural(*c))
         .collect();
     let objective_name = objective.name();
-
-    // Factors held at their mean are sampled here; materials and tolerances have a
-    // noise design of their own after the rounds.
-    if let Some(u) = study
-        .uncertainty
-        .as_ref()
-        .filter(|u| !u.parameters.is_empty())
-    {
-        let inputs: Vec<Distribution> = u.parameters.iter().map(|(_, d)| *d).collect();
-        let at_optimum = |sample: &[f64]| {
-            let mut x = optimum.x.clone();
-            for ((index, _), v) in u.parameters.iter().zip(sample) {
-                x[*index] = ranges[*index].to_coded(*v);
-            }
-            value(&x)
-        };
-        if let Ok(spread) = propagate(&at_optimum, &inputs, u.samples, u.seed) {
-            record.uncertainty = Some((objective_name.clone(), spread, u.seed));
-        }
-        // The same draws with the surrogates' own error sampled at each point.
-        let with_error = |sample: &[f64]| {
-            let mut x = optimum.x.clone();
-            for ((index, _), v) in u.parameters.iter().zip(sample) {
-                x[*index] = ranges[*index].to_coded(*v);
-            }
-            (value(&x), mean_std(&x).unwrap_or(0.0))
-        };
-        record.uncertainty_total =
-            propagate_with_error(&with_error, &inputs, u.samples, u.seed).ok();
+    let (spread, total) = surface.spread_at(study, &optimum.x, &ranges);
+    if let (Some(spread), Some(u)) = (spread, &study.uncertainty) {
+        record.uncertainty = Some((objective_name.clone(), spread, u.seed));
+        record.uncertainty_total = total;
     }
-    record.optimum_interval = prediction_interval(&optimum.x);
+    record.optimum_interval = surface.prediction_interval(&optimum.x);
     let goal = match objective.goal {
         Goal::Minimise => "minimise",
         Goal::Maximise => "maximise",
     };
     record.optimum = Some((objective_name, goal, optimum.clone(), natural.clone()));
-    // What each constrained response is predicted to be there, against its bound.
-    let at_bounds: Vec<String> = objective
-        .constraints
-        .iter()
-        .zip(&predictors)
-        .zip(&objective.probabilities)
-        .map(|(((response, min, max), g), probability)| {
-            let bound = match (min, max) {
-                (Some(min), Some(max)) => format!("bound [{min}, {max}]"),
-                (Some(min), None) => format!("bound ≥ {min}"),
-                (None, Some(max)) => format!("bound ≤ {max}"),
-                (None, None) => "no bound".to_string(),
-            };
-            let what = match probability {
-                Some(p) if min.is_some() => format!("{response}'s {p} quantile"),
-                Some(p) => format!("{response}'s {} quantile", 1.0 - p),
-                None => response.clone(),
-            };
-            format!("{what} = {:.6} ({bound})", g(&optimum.x))
-        })
-        .collect();
-    if !feasible {
+    if !found.feasible {
         record.decision = Decision::NoOptimum;
         record.note = format!(
             "no point of the box satisfies the objective's constraints; the best compromise reaches {}",
-            at_bounds.join(", ")
+            found.at_bounds.join(", ")
         );
         return Ok(record);
     }
-    let mut constrained = if at_bounds.is_empty() {
+    let mut constrained = if found.at_bounds.is_empty() {
         String::new()
     } else {
-        format!("; at the optimum {}", at_bounds.join(", "))
+        format!("; at the optimum {}", found.at_bounds.join(", "))
     };
-    for line in &robustness {
+    for line in &found.robustness {
         constrained.push_str("; ");
         constrained.push_str(line);
     }
@@ -503,104 +294,25 @@ async fn analyse(
             study.metamodel.tolerance * 100.0
         );
     } else if let Some(note) = previous.as_ref().and_then(|(_, _, _, before)| {
-        unresolved_gain(before, &ranges, &optimum, objective.goal, &value, &mean_std)
+        next::unresolved_gain(
+            before,
+            &ranges,
+            &optimum,
+            objective.goal,
+            &|x| surface.value(x),
+            &|x| surface.mean_std(x),
+        )
     }) {
         record.decision = Decision::Converged;
         record.note = format!("{note}{constrained}");
     } else {
-        // A Kriging objective proposes by expected improvement in the same box; a
-        // polynomial one zooms in: the design again in a box `shrink` times as wide
-        // around the optimum (uncertain factors keep their range).
-        let kriging = match objective.terms.as_slice() {
-            [(response, weight)] => match &surfaces[response] {
-                Surrogate::Kriging { model, .. } => {
-                    let goal = match (objective.goal, *weight >= 0.0) {
-                        (goal, true) => goal,
-                        (Goal::Maximise, false) => Goal::Minimise,
-                        (Goal::Minimise, false) => Goal::Maximise,
-                    };
-                    Some((response, model, goal))
-                }
-                Surrogate::Polynomial(_) => None,
-            },
-            _ => None,
-        };
-        let (next_ranges, mut next_coded, how) = match kriging {
-            Some((response, model, goal)) => {
-                let batch = study.executor.max_parallel.max(2);
-                let (x, y) = &data[response].design;
-                let seed = study.seed.wrapping_add(round as u64);
-                let points = propose_batch(model, x, y, &bounds, batch, goal, seed, &options);
-                let how = format!(
-                    "{} expected-improvement points (a kriging-believer batch, one per job slot) in the same box",
-                    points.len()
-                );
-                (ranges.clone(), points, how)
-            }
-            None => {
-                let mut next_ranges =
-                    shrink_around(&natural, &ranges, &limits, study.metamodel.shrink);
-                for (index, _) in &uncertain {
-                    next_ranges[*index] = ranges[*index];
-                }
-                let design =
-                    Design::build(&study.design, k).expect("the design was built for round 0");
-                let how = format!(
-                    "a box {} times as wide around the optimum",
-                    study.metamodel.shrink
-                );
-                (next_ranges, design.points, how)
-            }
-        };
-        // Always a few runs where the objective's surrogate is least certain, so that
-        // the next round tests it where it knows least.
-        let to_current = |coded: &[f64]| -> Vec<f64> {
-            coded
-                .iter()
-                .zip(&next_ranges)
-                .zip(&ranges)
-                .map(|((c, next), now)| now.to_coded(next.to_natural(*c)))
-                .collect()
-        };
-        let mut next_bounds = BoxBounds::coded(k);
-        for (index, distribution) in &uncertain {
-            let centre = next_ranges[*index]
-                .to_coded(mean_of(distribution))
-                .clamp(-1.0, 1.0);
-            next_bounds.lower[*index] = centre;
-            next_bounds.upper[*index] = centre;
-        }
-        let probes = if mean_std(&to_current(&vec![0.0; k])).is_some() {
-            least_certain(
-                &|c| mean_std(&to_current(c)).unwrap_or(0.0),
-                &next_bounds,
-                &next_coded,
-                (k / 2).max(1),
-                0.25,
-                study.seed.wrapping_add(31 * round as u64),
-            )
-        } else {
-            Vec::new()
-        };
-        let probed = probes.len();
-        next_coded.extend(probes);
-        let to_point = |coded: Vec<f64>| DesignPoint {
-            natural: coded
-                .iter()
-                .zip(&next_ranges)
-                .map(|(c, r)| r.to_natural(*c))
-                .collect(),
-            coded,
-        };
-        let next_points = next_coded.into_iter().map(to_point).collect();
-        let next_tests = study.test_points(round + 1, &next_ranges);
-        record.decision = Decision::NextRound;
-        record.note = format!(
-            "round {}: {how}, and {probed} run{} where the surrogate is least certain{constrained}",
-            round + 2,
-            if probed == 1 { "" } else { "s" }
+        let next = next::propose(
+            study, &surface, &inputs, &data, &options, &ranges, &natural, round,
         );
-        record.next = Some((next_ranges, next_points, next_tests));
+        let tests = study.test_points(round + 1, &next.ranges);
+        record.decision = Decision::NextRound;
+        record.note = format!("round {}: {}{constrained}", round + 2, next.how);
+        record.next = Some((next.ranges, next.points, tests));
     }
     Ok(record)
 }
@@ -689,35 +401,6 @@ fn fit_record(
         .map(|quality| (observed.test.1.len(), quality));
     record.result = Ok(surrogate);
     record
-}
-
-/// The stopping rule's second half: when this round's surrogate predicts the new
-/// optimum better than the previous round's (`before`, natural units) by less than the
-/// half-width of its own 95 % confidence interval there, another round would chase
-/// the surrogate's noise; says so, or `None` to go on.
-fn unresolved_gain(
-    before: &[f64],
-    ranges: &[FactorRange],
-    optimum: &orch_metamodel::Optimum,
-    goal: Goal,
-    value: &dyn Fn(&[f64]) -> f64,
-    mean_std: &dyn Fn(&[f64]) -> Option<f64>,
-) -> Option<String> {
-    let previous: Vec<f64> = before
-        .iter()
-        .zip(ranges)
-        .map(|(v, r)| r.to_coded(*v).clamp(-1.0, 1.0))
-        .collect();
-    let gain = match goal {
-        Goal::Maximise => optimum.value - value(&previous),
-        Goal::Minimise => value(&previous) - optimum.value,
-    };
-    let half_width = 1.959_963_984_540_054 * mean_std(&optimum.x)?;
-    (gain < half_width).then(|| {
-        format!(
-            "the surface predicts the new optimum better than the previous round's by {gain:.6}, within its own 95 % interval (±{half_width:.6}); another round would chase noise"
-        )
-    })
 }
 
 /// Test support: a study stored from `text` whose round-0 jobs all succeeded with the
@@ -1167,51 +850,6 @@ rounds: 2
             text.contains("  compromise point (pareto discharge_rate vs segregation_ratio): discharge_rate = "),
             "{text}"
         );
-    }
-
-    #[test]
-    fn a_gain_within_the_surrogates_own_interval_stops_the_rounds() {
-        // value = −(x − 0.2)²; the previous optimum at x = 0 (natural 10 in [0, 20]
-        // coded 0) is worse by 0.04 than the new one at x = 0.2.
-        let value = |x: &[f64]| -(x[0] - 0.2).powi(2);
-        let optimum = orch_metamodel::Optimum {
-            x: vec![0.2],
-            value: 0.0,
-            exact: true,
-        };
-        let ranges = [FactorRange {
-            min: 0.0,
-            max: 20.0,
-        }];
-        // A standard error of 0.05 makes ±0.098: the gain of 0.04 is noise.
-        let note = unresolved_gain(&[10.0], &ranges, &optimum, Goal::Maximise, &value, &|_| {
-            Some(0.05)
-        });
-        assert!(note
-            .unwrap()
-            .contains("within its own 95 % interval (±0.097998)"));
-        // A standard error of 0.01 (±0.0196) resolves it: go on.
-        assert!(
-            unresolved_gain(&[10.0], &ranges, &optimum, Goal::Maximise, &value, &|_| {
-                Some(0.01)
-            })
-            .is_none()
-        );
-        // Minimising the negative is the same question.
-        let negative = |x: &[f64]| -value(x);
-        let minimum = orch_metamodel::Optimum {
-            value: 0.0,
-            ..optimum
-        };
-        assert!(unresolved_gain(
-            &[10.0],
-            &ranges,
-            &minimum,
-            Goal::Minimise,
-            &negative,
-            &|_| Some(0.05)
-        )
-        .is_some());
     }
 
     /// Kriging forced, three job slots, two rounds.

@@ -25,7 +25,6 @@
 
 use std::collections::HashMap;
 
-use orch_metamodel::optimise::BoxBounds;
 use orch_metamodel::propose::{converged, shrink_around};
 use orch_metamodel::surrogate::Surrogate;
 use orch_metamodel::{
@@ -157,19 +156,9 @@ pub(super) fn analyse_front(
     };
 
     // Uncertain factors are held at their mean, as for a single objective.
-    let mut bounds = BoxBounds::coded(k);
-    let uncertain: Vec<(usize, Distribution)> = study
-        .uncertainty
-        .iter()
-        .flat_map(|u| u.parameters.iter().copied())
-        .collect();
-    for (index, distribution) in &uncertain {
-        let centre = ranges[*index]
-            .to_coded(super::mean_of(distribution))
-            .clamp(-1.0, 1.0);
-        bounds.lower[*index] = centre;
-        bounds.upper[*index] = centre;
-    }
+    let super::Inputs {
+        uncertain, bounds, ..
+    } = super::Inputs::of(study, ranges);
 
     let fits: Vec<&Surrogate> = objective
         .objectives

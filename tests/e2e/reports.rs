@@ -163,17 +163,34 @@ fn the_report_of_a_small_study_renders_in_headless_chromium_with_its_figures() {
     let dom = text(&dom.stdout);
     let svgs = dom.matches("<svg").count();
     eprintln!("rendered DOM: {} bytes, {svgs} <svg> elements", dom.len());
-    // Per round: a surface, predicted vs observed and a Pareto chart per response
-    // (2 headline responses), the trust-region box; a chart per stored series.
+    // Per round: a surface, predicted vs observed, a Pareto chart (a polynomial with
+    // t-values; Kriging has no terms) and the Sobol indices per response (2 headline
+    // responses), the trust-region box; a chart per stored series.
     let series = project.query("SELECT COUNT(DISTINCT name) FROM series")[0][0]
         .parse::<usize>()
         .unwrap();
     assert!(series >= 1);
+    let status = project.status("small");
+    let per_response: usize = status["rounds"][0]["fits"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|fit| {
+            let pareto = fit["terms"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .any(|t| !t["t"].is_null());
+            let sobol = !fit["sobol"].as_object().unwrap().is_empty();
+            2 + usize::from(pareto) + usize::from(sobol)
+        })
+        .sum();
     assert_eq!(
         svgs,
-        2 * 3 + 1 + series,
+        per_response + 1 + series,
         "<svg> elements in the rendered DOM"
     );
+    assert!(dom.contains("Sobol indices"), "the rendered report lacks Sobol indices");
     for title in [
         "<title>small: report</title>",
         "Definitions",

@@ -7,7 +7,7 @@
 //! ```toml
 //! [verify]
 //! description = "normal impact on a wall at 1 m/s, e = 0.5"
-//! source = "the input restitution (SCIENCE.md §2)"
+//! source = "the input restitution (docs/method.md, contact model)"
 //!
 //! [[verify.check]]
 //! quantity = "restitution"
@@ -430,7 +430,7 @@ fn measure(
             Impact::Touching { .. } => Err(
                 "particle 1 was still in contact at the end; lengthen run.end_time".to_string(),
             ),
-            Impact::Approaching { .. } => Err(
+            Impact::Approaching => Err(
                 "particle 1 never touched a wall or another particle; aim it at one or lengthen run.end_time"
                     .to_string(),
             ),

@@ -85,6 +85,19 @@ fn run_case(file: &Path) -> anyhow::Result<Vec<Outcome>> {
         .with_context(|| format!("{}", file.display()))
 }
 
+/// Seven significant digits, in exponent form outside 0.01 to 10⁴.
+fn number(x: f64) -> String {
+    let magnitude = x.abs();
+    if magnitude == 0.0 {
+        "0".to_string()
+    } else if (1e-2..1e4).contains(&magnitude) {
+        let decimals = (6 - magnitude.log10().floor() as i32).max(0) as usize;
+        format!("{x:.decimals$}")
+    } else {
+        format!("{x:.6e}")
+    }
+}
+
 /// The table, one line per check, and a closing count.
 pub fn render(rows: &[Row]) -> String {
     let mut lines = vec![[
@@ -106,8 +119,8 @@ pub fn render(rows: &[Row]) -> String {
                 [
                     row.case.clone(),
                     format!("{} ({})", o.quantity.name(), o.quantity.unit()),
-                    o.measured.map_or("-".into(), |m| format!("{m:.6e}")),
-                    format!("{:.6e}", o.reference),
+                    o.measured.map_or("-".into(), number),
+                    number(o.reference),
                     o.relative_error()
                         .map_or("-".into(), |e| format!("{e:.2e}")),
                     format!("{:.1e}", o.tolerance),

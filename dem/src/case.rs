@@ -5,6 +5,29 @@
 //! silently ignored) and reports errors by key path; the caller adds the file name.
 //! Mesh files are named here but read by the caller, which passes their bytes to
 //! [`Case::wall_mesh`].
+//!
+//! Particles present at the start come either from random insertion (`[insert]`, a
+//! count and mass fractions in a region) or from a list of explicit particles
+//! (`[[particles]]`, each placed and launched by hand, as impact tests need), never
+//! both in one case: the insertion does not know where explicit particles are, so it
+//! could place a sphere inside one. `[[inflow]]` may join either, since inflow batches
+//! avoid every particle present. Explicit particles get ids 1, 2, … in file order:
+//!
+//! ```toml
+//! [[particles]]
+//! type = "glass"                  # a `[[types]]` name, or its number from 1 as in dumps
+//! position = [0.0, 0.0, 0.00102]  # m
+//! velocity = [0.0, 0.0, -1.0]     # m/s, default 0
+//! angular_velocity = [0.0, 0.0, 0.0]  # rad/s, default 0
+//! radius = 0.001                  # m, default the type's radius
+//! ```
+//!
+//! A radius other than the type's keeps the type's density and material (its mass
+//! follows from the radius); the default time step and skin account for it.
+//!
+//! A `[verify]` table makes the case a verification benchmark ([`crate::verify`]):
+//! `orch-dem verify` measures its quantities and compares them with the references;
+//! `orch-dem run` ignores it.
 
 use serde::Deserialize;
 
@@ -15,6 +38,7 @@ use crate::math::{Real, Vec3, STANDARD_GRAVITY_M_S2};
 use crate::mesh::{parse_stl, Motion, WallMesh, WeldedMesh};
 use crate::particles::Particles;
 use crate::simulation::{Config, Simulation};
+use crate::verify::Verify;
 
 /// A whole case file.
 #[derive(Debug, Clone, Deserialize)]
@@ -31,8 +55,12 @@ pub struct Case {
     /// Walls.
     #[serde(default)]
     pub meshes: Vec<MeshEntry>,
-    /// Particles inserted at the start (none when absent).
+    /// Particles inserted at random at the start (none when absent); excludes
+    /// `particles`.
     pub insert: Option<Insert>,
+    /// Explicit particles present at the start (`[[particles]]`); excludes `insert`.
+    #[serde(default)]
+    pub particles: Vec<ParticleEntry>,
     /// Continuous inflows (`[[inflow]]`), fed while the run goes on.
     #[serde(default)]
     pub inflow: Vec<InflowEntry>,
@@ -43,6 +71,9 @@ pub struct Case {
     /// What is written, and how often.
     #[serde(default)]
     pub output: Output,
+    /// The quantities a verification case measures and their references (`[verify]`);
+    /// only `orch-dem verify` reads it.
+    pub verify: Option<Verify>,
 }
 
 /// `[run]`: time stepping and stopping.
@@ -188,6 +219,36 @@ pub struct Insert {
     pub mass_fractions: Vec<Real>,
     /// Where.
     pub region: RegionEntry,
+}
+
+/// `[[particles]]`: one particle placed by hand, for impacts and other set-ups that
+/// need exact initial states.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ParticleEntry {
+    /// Its type: a `[[types]]` name, or the type's number counted from 1 as in dumps.
+    #[serde(rename = "type")]
+    pub kind: TypeRef,
+    /// Centre, m.
+    pub position: [Real; 3],
+    /// Velocity, m/s (default at rest).
+    #[serde(default)]
+    pub velocity: [Real; 3],
+    /// Angular velocity, rad/s (default not spinning).
+    #[serde(default)]
+    pub angular_velocity: [Real; 3],
+    /// Radius, m (default the type's); the type's density and material still apply.
+    pub radius: Option<Real>,
+}
+
+/// A reference to a particle type: by name, or by number from 1 (the dumps' numbering).
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(untagged)]
+pub enum TypeRef {
+    /// The `name` of a `[[types]]` entry.
+    Name(String),
+    /// The type's number, 1 for the first `[[types]]` entry.
+    Number(i64),
 }
 
 /// `[[inflow]]`: a mixture fed through a region at a mass rate over a time window
@@ -372,6 +433,12 @@ impl Case {
                 .validate(&self.particle_types())
                 .map_err(|e| invalid(format!("inflow[{k}]"), e.to_string()))?;
         }
+        self.validate_particles()?;
+        if let Some(verify) = &self.verify {
+            verify
+                .validate(self.run.end_time, self.particles.len())
+                .map_err(|e| invalid(e.field, e.message))?;
+        }
         let Some(insert) = &self.insert else {
             return self.validate_meshes();
         };
@@ -401,6 +468,97 @@ impl Case {
             ));
         }
         self.validate_meshes()
+    }
+
+    fn validate_particles(&self) -> Result<(), CaseError> {
+        if self.insert.is_some() && !self.particles.is_empty() {
+            return Err(invalid(
+                "particles",
+                "a case places its particles either at random ([insert]) or by hand ([[particles]]), not both; remove one (an [[inflow]] may join either)",
+            ));
+        }
+        for (k, p) in self.particles.iter().enumerate() {
+            let field = |name: &str| format!("particles[{k}].{name}");
+            self.type_index(k, &p.kind)?;
+            finite(&field("position"), &p.position)?;
+            finite(&field("velocity"), &p.velocity)?;
+            finite(&field("angular_velocity"), &p.angular_velocity)?;
+            if let Some(radius) = p.radius {
+                finite_positive(&field("radius"), radius)?;
+            }
+            let speed = Vec3::from(p.velocity).norm();
+            if speed > self.run.max_speed {
+                return Err(invalid(
+                    field("velocity"),
+                    format!(
+                        "the speed {speed} m/s exceeds run.max_speed ({} m/s), which would stop the run at once; launch it slower or raise run.max_speed",
+                        self.run.max_speed
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// The index into `types` of explicit particle `k`'s type.
+    fn type_index(&self, k: usize, kind: &TypeRef) -> Result<usize, CaseError> {
+        let names: Vec<&str> = self.types.iter().map(|t| t.name.as_str()).collect();
+        let found = match kind {
+            TypeRef::Name(name) => names.iter().position(|n| n == name),
+            TypeRef::Number(number) => usize::try_from(*number)
+                .ok()
+                .filter(|n| (1..=names.len()).contains(n))
+                .map(|n| n - 1),
+        };
+        found.ok_or_else(|| {
+            let given = match kind {
+                TypeRef::Name(name) => format!("\"{name}\""),
+                TypeRef::Number(number) => number.to_string(),
+            };
+            invalid(
+                format!("particles[{k}].type"),
+                format!(
+                    "no particle type {given}; expected one of the [[types]] names {names:?} or a number from 1 to {} (types count from 1, as in dumps)",
+                    names.len()
+                ),
+            )
+        })
+    }
+
+    /// The radius of explicit particle `entry`, m: its own, or its type's.
+    fn radius_of(&self, kind: usize, entry: &ParticleEntry) -> Real {
+        entry.radius.unwrap_or(self.types[kind].radius)
+    }
+
+    /// The explicit particles, ids 1, 2, … in file order (call after validation).
+    fn explicit_particles(&self, types: &[ParticleType]) -> Result<Particles, CaseError> {
+        let mut particles = Particles::default();
+        for (k, entry) in self.particles.iter().enumerate() {
+            let kind = self.type_index(k, &entry.kind)?;
+            let sized = ParticleType {
+                radius_m: self.radius_of(kind, entry),
+                ..types[kind]
+            };
+            particles.push(
+                k as u32 + 1,
+                kind as u16,
+                &sized,
+                Vec3::from(entry.position),
+            );
+            particles.velocity_m_s[k] = Vec3::from(entry.velocity);
+            particles.angular_velocity[k] = Vec3::from(entry.angular_velocity);
+        }
+        Ok(particles)
+    }
+
+    /// The largest radius of any type or explicit particle, m.
+    fn largest_radius_m(&self) -> Real {
+        let explicit = self.particles.iter().filter_map(|p| p.radius);
+        self.types
+            .iter()
+            .map(|t| t.radius)
+            .chain(explicit)
+            .fold(0.0, Real::max)
     }
 
     fn validate_meshes(&self) -> Result<(), CaseError> {
@@ -475,14 +633,24 @@ impl Case {
             .collect()
     }
 
-    /// The time step, s: given, or a fraction of the smallest Rayleigh time.
+    /// The time step, s: given, or a fraction of the smallest Rayleigh time (of the
+    /// types and of any explicit particle with a radius of its own).
     pub fn timestep_s(&self) -> Real {
         self.run.timestep.unwrap_or_else(|| {
+            let types = self.particle_types();
+            let explicit = self.particles.iter().enumerate().filter_map(|(k, p)| {
+                let kind = self.type_index(k, &p.kind).ok()?;
+                Some(ParticleType {
+                    radius_m: p.radius?,
+                    ..types[kind]
+                })
+            });
             self.run.rayleigh_fraction
-                * self
-                    .particle_types()
+                * types
                     .iter()
-                    .map(ParticleType::rayleigh_time_s)
+                    .copied()
+                    .chain(explicit)
+                    .map(|t| t.rayleigh_time_s())
                     .fold(Real::INFINITY, Real::min)
         })
     }
@@ -522,7 +690,7 @@ impl Case {
     /// [`Case::wall_mesh`], in case order).
     pub fn build(&self, walls: Vec<WallMesh>) -> Result<Simulation, CaseError> {
         let types = self.particle_types();
-        let mut particles = Particles::default();
+        let mut particles = self.explicit_particles(&types)?;
         if let Some(entry) = &self.insert {
             let counts = counts_from_mass_fractions(&types, &entry.mass_fractions, entry.count);
             insert(
@@ -535,7 +703,7 @@ impl Case {
             )
             .map_err(|e| invalid("insert", e.to_string()))?;
         }
-        let largest = types.iter().map(|t| t.radius_m).fold(0.0, Real::max);
+        let largest = self.largest_radius_m();
         let config = Config {
             timestep_s: self.timestep_s(),
             gravity_m_s2: self.run.gravity.map(Vec3::from).unwrap_or(Vec3::new(
@@ -623,5 +791,184 @@ fn material(m: &WallMaterial) -> Material {
         restitution: m.restitution,
         friction: m.friction,
         rolling_friction: m.rolling_friction,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const BASE: &str = r#"
+[run]
+timestep = 1e-6
+end_time = 0.001
+seed = 1
+
+[domain]
+min = [-0.01, -0.01, -0.01]
+max = [0.01, 0.01, 0.01]
+
+[[types]]
+name = "glass"
+radius = 0.001
+density = 2500
+youngs_modulus = 5e6
+poisson_ratio = 0.3
+restitution = 0.5
+friction = 0.3
+
+[[types]]
+name = "steel"
+radius = 0.002
+density = 7800
+youngs_modulus = 2e8
+poisson_ratio = 0.3
+restitution = 0.5
+friction = 0.3
+
+[wall_material]
+youngs_modulus = 5e6
+poisson_ratio = 0.3
+restitution = 0.5
+friction = 0.3
+"#;
+
+    const TWO: &str = r#"
+[[particles]]
+type = "steel"
+position = [0.0, 0.0, 0.005]
+velocity = [0.0, 0.0, -1.0]
+angular_velocity = [0.0, 20.0, 0.0]
+
+[[particles]]
+type = 1
+position = [0.0, 0.0, -0.005]
+radius = 0.0005
+"#;
+
+    fn error_of(extra: &str) -> String {
+        Case::parse(&format!("{BASE}{extra}"))
+            .unwrap_err()
+            .to_string()
+    }
+
+    #[test]
+    fn explicit_particles_keep_their_state_type_and_radius() {
+        let case = Case::parse(&format!("{BASE}{TWO}")).unwrap();
+        let sim = case.build(vec![]).unwrap();
+        let p = &sim.particles;
+        assert_eq!(p.id, [1, 2]);
+        assert_eq!(p.kind, [1, 0]);
+        assert_eq!(p.position_m[0], Vec3::new(0.0, 0.0, 0.005));
+        assert_eq!(p.velocity_m_s[0], Vec3::new(0.0, 0.0, -1.0));
+        assert_eq!(p.angular_velocity[0], Vec3::new(0.0, 20.0, 0.0));
+        assert_eq!(p.radius_m, [0.002, 0.0005]);
+        let glass = 4.0 / 3.0 * std::f64::consts::PI * 0.0005f64.powi(3) * 2500.0;
+        assert!((p.mass_kg[1] - glass).abs() < 1e-15);
+        assert_eq!(p.velocity_m_s[1], Vec3::zeros());
+    }
+
+    #[test]
+    fn a_smaller_explicit_radius_shortens_the_default_time_step() {
+        let text = format!("{BASE}{TWO}").replace("timestep = 1e-6\n", "");
+        let case = Case::parse(&text).unwrap();
+        let types = case.particle_types();
+        let small = ParticleType {
+            radius_m: 0.0005,
+            ..types[0]
+        };
+        assert_eq!(case.timestep_s(), 0.15 * small.rayleigh_time_s());
+    }
+
+    #[test]
+    fn bad_explicit_particles_name_their_field() {
+        let cases = [
+            (
+                TWO.replace("type = \"steel\"", "type = \"brass\""),
+                "`particles[0].type`: no particle type \"brass\"; expected one of the [[types]] names [\"glass\", \"steel\"] or a number from 1 to 2",
+            ),
+            (
+                TWO.replace("type = 1", "type = 3"),
+                "`particles[1].type`: no particle type 3",
+            ),
+            (
+                TWO.replace("type = 1", "type = 0"),
+                "`particles[1].type`: no particle type 0",
+            ),
+            (
+                TWO.replace("radius = 0.0005", "radius = -0.0005"),
+                "`particles[1].radius`: expected a positive number, got -0.0005",
+            ),
+            (
+                TWO.replace("position = [0.0, 0.0, 0.005]", "position = [0.0, nan, 0.005]"),
+                "`particles[0].position`: expected finite numbers, got NaN",
+            ),
+            (
+                TWO.replace("[0.0, 20.0, 0.0]", "[0.0, inf, 0.0]"),
+                "`particles[0].angular_velocity`: expected finite numbers, got inf",
+            ),
+            (
+                TWO.replace("velocity = [0.0, 0.0, -1.0]", "velocity = [0.0, 0.0, -80.0]"),
+                "`particles[0].velocity`: the speed 80 m/s exceeds run.max_speed (50 m/s)",
+            ),
+        ];
+        for (extra, expected) in cases {
+            let error = error_of(&extra);
+            assert!(error.starts_with(expected), "{error}");
+        }
+    }
+
+    #[test]
+    fn a_particle_without_position_or_with_a_misspelt_key_is_a_syntax_error() {
+        let error = error_of("[[particles]]\ntype = \"glass\"\n");
+        assert!(error.contains("missing field `position`"), "{error}");
+        let error =
+            error_of("[[particles]]\ntype = \"glass\"\nposition = [0, 0, 0]\nspin = [0, 0, 1]\n");
+        assert!(error.contains("unknown field `spin`"), "{error}");
+    }
+
+    #[test]
+    fn random_insertion_and_explicit_particles_exclude_each_other() {
+        let insert = "\n[insert]\ncount = 2\nmass_fractions = [1.0, 0.0]\nregion = { kind = \"box\", min = [-0.01, -0.01, -0.01], max = [0.01, 0.01, 0.01] }\n";
+        let error = error_of(&format!("{TWO}{insert}"));
+        assert!(
+            error.starts_with("`particles`: a case places its particles either at random ([insert]) or by hand ([[particles]]), not both"),
+            "{error}"
+        );
+    }
+
+    #[test]
+    fn a_verify_table_is_checked_against_the_case() {
+        let check = |body: &str| {
+            error_of(&format!(
+                "{TWO}\n[verify]\ndescription = \"d\"\nsource = \"s\"\n{body}"
+            ))
+        };
+        let error = check("\n[[verify.check]]\nquantity = \"acceleration\"\nreference = 1.0\ntolerance = 0.01\ndirection = [1, 0, 0]\n");
+        assert!(
+            error.starts_with("`verify.check[0].window`: `acceleration` needs window"),
+            "{error}"
+        );
+        let error = check("\n[[verify.check]]\nquantity = \"acceleration\"\nreference = 1.0\ntolerance = 0.01\nwindow = [0.0, 0.5]\ndirection = [1, 0, 0]\n");
+        assert!(
+            error.starts_with(
+                "`verify.check[0].window`: expected 0 ≤ start < end ≤ run.end_time (0.001 s)"
+            ),
+            "{error}"
+        );
+        let error = check(
+            "\n[[verify.check]]\nquantity = \"restitution\"\nreference = 0.0\ntolerance = 0.01\n",
+        );
+        assert!(error.starts_with("`verify.check[0].reference`"), "{error}");
+        let error = check("\n[[verify.check]]\nquantity = \"restitution\"\nreference = 0.5\ntolerance = 0.01\nwindow = [0.0, 0.001]\n");
+        assert!(
+            error.starts_with(
+                "`verify.check[0].window`: `restitution` is measured over the first impact"
+            ),
+            "{error}"
+        );
+        let error =
+            check("\n[[verify.check]]\nquantity = \"bounce\"\nreference = 0.5\ntolerance = 0.01\n");
+        assert!(error.contains("unknown variant `bounce`"), "{error}");
     }
 }

@@ -6,7 +6,8 @@
 //! [`insert`] fills a region without overlaps; [`inflow`] feeds a mixture through a
 //! region at a mass rate over a time window; [`case`] reads the case file format
 //! (TOML) that `orch` renders and [`output`] writes LIGGGHTS-compatible dumps, VTK
-//! files and the sensor's crossings.
+//! files and the sensor's crossings; [`verify`] measures what a verification case
+//! names and compares it with the case's references.
 //!
 //! The kernel does no I/O: callers hand it bytes and writers. It is deterministic: the
 //! same case and seed give the same numbers, bit for bit, with any number of rayon
@@ -27,6 +28,7 @@ pub mod neighbour;
 pub mod output;
 pub mod particles;
 pub mod simulation;
+pub mod verify;
 pub mod walls;
 
 pub use math::{Real, Vec3};

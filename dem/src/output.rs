@@ -8,8 +8,9 @@ use crate::math::Vec3;
 use crate::particles::Particles;
 use crate::simulation::Crossing;
 
-/// The columns of [`write_dump_custom`], as LIGGGHTS names them.
-pub const DUMP_COLUMNS: &str = "id type radius mass x y z vx vy vz";
+/// The columns of [`write_dump_custom`], as LIGGGHTS names them; the angular
+/// velocity (rad/s) comes last so that readers of the older columns still find theirs.
+pub const DUMP_COLUMNS: &str = "id type radius mass x y z vx vy vz omegax omegay omegaz";
 
 /// One snapshot in LIGGGHTS `dump custom` format with the columns [`DUMP_COLUMNS`];
 /// types are numbered from 1 as in LIGGGHTS.
@@ -29,9 +30,10 @@ pub fn write_dump_custom(
     writeln!(out, "ITEM: ATOMS {DUMP_COLUMNS}")?;
     for i in 0..particles.len() {
         let (x, v) = (particles.position_m[i], particles.velocity_m_s[i]);
+        let w = particles.angular_velocity[i];
         writeln!(
             out,
-            "{} {} {:e} {:e} {:e} {:e} {:e} {:e} {:e} {:e}",
+            "{} {} {:e} {:e} {:e} {:e} {:e} {:e} {:e} {:e} {:e} {:e} {:e}",
             particles.id[i],
             particles.kind[i] + 1,
             particles.radius_m[i],
@@ -41,14 +43,17 @@ pub fn write_dump_custom(
             x.z,
             v.x,
             v.y,
-            v.z
+            v.z,
+            w.x,
+            w.y,
+            w.z
         )?;
     }
     Ok(())
 }
 
-/// All particles as VTK legacy polydata: points with `id`, `type`, `radius` and
-/// `velocity` arrays (in ParaView, glyph by `radius` to see spheres).
+/// All particles as VTK legacy polydata: points with `id`, `type`, `radius`,
+/// `velocity` (m/s) and `angular_velocity` (rad/s) arrays (in ParaView, glyph by `radius` to see spheres).
 pub fn write_vtk_legacy(
     out: &mut impl Write,
     time_s: f64,
@@ -83,6 +88,10 @@ pub fn write_vtk_legacy(
     writeln!(out, "VECTORS velocity double")?;
     for v in &particles.velocity_m_s {
         writeln!(out, "{:e} {:e} {:e}", v.x, v.y, v.z)?;
+    }
+    writeln!(out, "VECTORS angular_velocity double")?;
+    for w in &particles.angular_velocity {
+        writeln!(out, "{:e} {:e} {:e}", w.x, w.y, w.z)?;
     }
     Ok(())
 }

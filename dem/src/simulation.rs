@@ -30,7 +30,9 @@ use crate::math::{Real, Vec3};
 use crate::mesh::WallMesh;
 use crate::neighbour::{CellGrid, PairList};
 use crate::particles::Particles;
-use crate::walls::{wall_load, MeshIndex, ParticleView, WallCandidates, WallContacts, WallState};
+use crate::walls::{
+    wall_load, MeshIndex, ParticleView, WallCandidates, WallContact, WallContacts, WallState,
+};
 
 /// Settings of a simulation that are not particles or walls.
 #[derive(Debug, Clone, PartialEq)]
@@ -272,7 +274,12 @@ impl Simulation {
                 });
             }
         }
-        let largest = types.iter().map(|t| t.radius_m).fold(0.0, Real::max);
+        // Particles placed by hand may be larger than their type.
+        let largest = types
+            .iter()
+            .map(|t| t.radius_m)
+            .chain(particles.radius_m.iter().copied())
+            .fold(0.0, Real::max);
         let reach = 2.0 * largest + config.skin_m;
         let grid = CellGrid::new(config.domain_min_m, config.domain_max_m, reach);
         let mesh_indexes = meshes
@@ -409,6 +416,12 @@ impl Simulation {
     /// to check that a shared edge or vertex is counted once).
     pub fn wall_contact_count(&self, i: usize) -> usize {
         self.wall_contacts[i].as_slice().len()
+    }
+
+    /// The wall contacts particle index `i` had in the last step, each with its unit
+    /// normal from the wall towards the particle.
+    pub fn wall_contacts(&self, i: usize) -> &[WallContact] {
+        self.wall_contacts[i].as_slice()
     }
 
     /// Advances the simulation by one time step.

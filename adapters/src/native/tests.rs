@@ -183,6 +183,7 @@ fn kernel_dumps_read_with_the_liggghts_dump_reader() {
     let mut particles = Particles::default();
     particles.push(4, 1, &kind, Vec3::new(0.001, 0.002, -0.004));
     particles.velocity_m_s[0] = Vec3::new(0.0, 0.0, -1.25);
+    particles.angular_velocity[0] = Vec3::new(0.5, -2.0, 0.0);
     let mut bytes = Vec::new();
     orch_dem::output::write_dump_custom(
         &mut bytes,
@@ -198,6 +199,13 @@ fn kernel_dumps_read_with_the_liggghts_dump_reader() {
         Path::new("dump300.liggghts"),
         |snapshot| {
             assert_eq!(snapshot.timestep, 300);
+            // The angular velocity comes after the columns LIGGGHTS readers expect.
+            let omega: Vec<usize> = ["omegax", "omegay", "omegaz"]
+                .iter()
+                .map(|c| snapshot.column(c).expect("the native dump carries ω"))
+                .collect();
+            assert_eq!(omega, [10, 11, 12]);
+            assert_eq!(snapshot.values[11], -2.0);
             seen.extend(snapshot.sightings().map_err(|m| m.join(","))?);
             Ok(())
         },

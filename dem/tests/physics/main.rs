@@ -1,6 +1,7 @@
 //! Physics of the native kernel checked against analytical answers: Hertz impacts,
 //! restitution, Coulomb sliding, rolling and sliding on an incline, energy
-//! conservation; plus determinism and the errors of bad input.
+//! conservation; plus determinism, the errors of bad input and the verification set
+//! `dem/verification/`.
 
 mod bad_input;
 mod determinism;
@@ -8,6 +9,7 @@ mod energy;
 mod impacts;
 mod incline;
 mod inflow;
+mod verification;
 mod walls;
 
 use orch_dem::material::{Material, ParticleType};

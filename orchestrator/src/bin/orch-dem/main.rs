@@ -2,15 +2,19 @@
 //!
 //! `orch-dem run CASE.toml` runs a case file rendered from
 //! `templates/native/hopper.toml.tera` (or written by hand); `orch-dem bench` runs the
-//! same hopper on LIGGGHTS and on the native kernel and prints their throughput.
+//! same hopper on LIGGGHTS and on the native kernel and prints their throughput;
+//! `orch-dem verify [DIR]` runs the kernel's verification cases (`dem/verification/`)
+//! and prints measured against analytic or published values.
 //! It lives in the `orch` package so that `cargo install --path orchestrator`
 //! installs it beside `orch`.
 //!
-//! Exit status: 0 finished, 1 the run failed (e.g. went unstable; the log says at which
-//! step and particle), 2 bad case file or mesh.
+//! Exit status: 0 finished (for `verify`: every check passed), 1 the run failed (e.g.
+//! went unstable; the log says at which step and particle) or a verification check
+//! failed, 2 bad case file or mesh.
 
 mod bench;
 mod run;
+mod verify;
 
 use std::path::PathBuf;
 
@@ -40,6 +44,16 @@ enum Command {
     /// Run the same hopper on LIGGGHTS (1 core) and on the native kernel (1 and 2
     /// threads) back to back and print particle-steps per second and their ratios.
     Bench(bench::BenchArgs),
+    /// Run every verification case (impacts, Hertz contact time, incline) and print
+    /// measured against reference values; exit 1 unless every check passes.
+    Verify {
+        /// The folder of cases (default: `dem/verification/` of the source tree, or
+        /// one found beside the binary).
+        dir: Option<PathBuf>,
+        /// Worker threads (the result does not depend on it).
+        #[arg(long, default_value_t = 1, env = "ORCH_DEM_THREADS")]
+        threads: usize,
+    },
 }
 
 fn main() {
@@ -55,6 +69,16 @@ fn main() {
             );
         }),
         Command::Bench(args) => bench::bench(&args),
+        Command::Verify { dir, threads } => rayon::ThreadPoolBuilder::new()
+            .num_threads(threads.max(1))
+            .build()
+            .map_err(anyhow::Error::from)
+            .and_then(|pool| pool.install(|| verify::verify(dir)))
+            .map(|all_passed| {
+                if !all_passed {
+                    std::process::exit(1);
+                }
+            }),
     };
     if let Err(error) = result {
         eprintln!("orch-dem: error: {error:#}");

@@ -1,0 +1,467 @@
+//! Verification benchmarks: a case file with a `[verify]` table names quantities to
+//! measure on particle 1 (the first `[[particles]]` entry) and the reference value of
+//! each, with a relative tolerance and the source of the reference. [`run`] steps the
+//! case and measures them; `orch-dem verify` does so for every file of
+//! `dem/verification/` and prints one table.
+//!
+//! ```toml
+//! [verify]
+//! description = "normal impact on a wall at 1 m/s, e = 0.5"
+//! source = "the input restitution (docs/method.md, contact model)"
+//!
+//! [[verify.check]]
+//! quantity = "restitution"
+//! reference = 0.5
+//! tolerance = 0.01
+//! ```
+//!
+//! Impact quantities (`restitution`, `contact_duration`, `tangential_speed_loss`,
+//! `rebound_spin`) follow particle 1's first contact, with a fixed wall or another
+//! particle, from the step it begins to the step it ends; its normal is the wall's
+//! (towards the particle) or the line of centres at the first step of contact.
+//! Window quantities (`acceleration`, `rolling_ratio`) compare particle 1's state at
+//! the first steps at or after the two times of `window`.
+
+use serde::Deserialize;
+
+use crate::math::{Real, Vec3};
+use crate::simulation::{Simulation, Unstable};
+
+/// `[verify]`: what a verification case checks and where its references come from.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Verify {
+    /// What the case is, in one line.
+    pub description: String,
+    /// Where the references come from (a formula and its book or paper).
+    pub source: String,
+    /// The quantities measured (`[[verify.check]]`).
+    pub check: Vec<Check>,
+}
+
+/// `[[verify.check]]`: one quantity, its reference and its tolerance.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Check {
+    /// What is measured.
+    pub quantity: Quantity,
+    /// The expected value, in the quantity's SI unit ([`Quantity::unit`]).
+    pub reference: Real,
+    /// Largest relative error `|measured − reference| / |reference|` that passes.
+    pub tolerance: Real,
+    /// Start and end time of the measurement, s (window quantities only).
+    pub window: Option<[Real; 2]>,
+    /// Direction along which velocity is measured (window quantities only; normalised).
+    pub direction: Option<[Real; 3]>,
+    /// Axis about which spin is measured (`rolling_ratio` only; normalised).
+    pub spin_axis: Option<[Real; 3]>,
+}
+
+/// A quantity measured on particle 1.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Quantity {
+    /// Normal rebound speed over normal approach speed of the first impact (relative
+    /// to the other particle, if any); dimensionless.
+    Restitution,
+    /// Duration of the first impact, s.
+    ContactDuration,
+    /// Tangential (relative) centre speed before the first impact minus after, m/s.
+    TangentialSpeedLoss,
+    /// Angular speed after the first impact, rad/s.
+    ReboundSpin,
+    /// Mean acceleration along `direction` over `window`, m/s².
+    Acceleration,
+    /// `r Δω·spin_axis / Δv·direction` over `window`: 1 for rolling without slip,
+    /// below 1 when the contact slides; dimensionless.
+    RollingRatio,
+}
+
+impl Quantity {
+    /// The name used in case files and tables.
+    pub fn name(self) -> &'static str {
+        match self {
+            Quantity::Restitution => "restitution",
+            Quantity::ContactDuration => "contact_duration",
+            Quantity::TangentialSpeedLoss => "tangential_speed_loss",
+            Quantity::ReboundSpin => "rebound_spin",
+            Quantity::Acceleration => "acceleration",
+            Quantity::RollingRatio => "rolling_ratio",
+        }
+    }
+
+    /// The SI unit of the quantity ("-" when dimensionless).
+    pub fn unit(self) -> &'static str {
+        match self {
+            Quantity::Restitution | Quantity::RollingRatio => "-",
+            Quantity::ContactDuration => "s",
+            Quantity::TangentialSpeedLoss => "m/s",
+            Quantity::ReboundSpin => "rad/s",
+            Quantity::Acceleration => "m/s^2",
+        }
+    }
+
+    fn uses_window(self) -> bool {
+        matches!(self, Quantity::Acceleration | Quantity::RollingRatio)
+    }
+}
+
+/// A `[verify]` table that cannot be measured as written: the field and what to do.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("`{field}`: {message}")]
+pub struct VerifyTableError {
+    /// Key path, e.g. `verify.check[1].window`.
+    pub field: String,
+    /// What was expected.
+    pub message: String,
+}
+
+impl Verify {
+    /// Checks the table against a run of `end_time_s` seconds with `n_particles`
+    /// explicit particles.
+    pub fn validate(&self, end_time_s: Real, n_particles: usize) -> Result<(), VerifyTableError> {
+        let error = |field: String, message: String| VerifyTableError { field, message };
+        if n_particles == 0 {
+            return Err(error(
+                "verify".into(),
+                "a verification case measures particle 1: place it with [[particles]]".into(),
+            ));
+        }
+        if self.check.is_empty() {
+            return Err(error(
+                "verify.check".into(),
+                "expected at least one [[verify.check]] entry".into(),
+            ));
+        }
+        for (k, c) in self.check.iter().enumerate() {
+            let field = |name: &str| format!("verify.check[{k}].{name}");
+            if !(c.reference.is_finite() && c.reference != 0.0) {
+                return Err(error(
+                    field("reference"),
+                    format!(
+                        "expected a finite, non-zero value (errors are relative to it), got {}",
+                        c.reference
+                    ),
+                ));
+            }
+            if !(c.tolerance.is_finite() && c.tolerance > 0.0) {
+                return Err(error(
+                    field("tolerance"),
+                    format!(
+                        "expected a positive relative tolerance, got {}",
+                        c.tolerance
+                    ),
+                ));
+            }
+            let name = c.quantity.name();
+            if !c.quantity.uses_window() {
+                for (key, given) in [
+                    ("window", c.window.is_some()),
+                    ("direction", c.direction.is_some()),
+                    ("spin_axis", c.spin_axis.is_some()),
+                ] {
+                    if given {
+                        return Err(error(
+                            field(key),
+                            format!("`{name}` is measured over the first impact and takes no {key}; remove it"),
+                        ));
+                    }
+                }
+                continue;
+            }
+            let Some([from, to]) = c.window else {
+                return Err(error(
+                    field("window"),
+                    format!("`{name}` needs window = [start, end] in s"),
+                ));
+            };
+            if !(from.is_finite() && to.is_finite() && 0.0 <= from && from < to && to <= end_time_s)
+            {
+                return Err(error(
+                    field("window"),
+                    format!("expected 0 ≤ start < end ≤ run.end_time ({end_time_s} s), got [{from}, {to}]"),
+                ));
+            }
+            unit_vector(&field("direction"), c.direction, name)
+                .map_err(|m| error(field("direction"), m))?;
+            match (c.quantity, c.spin_axis) {
+                (Quantity::RollingRatio, axis) => {
+                    unit_vector(&field("spin_axis"), axis, name)
+                        .map_err(|m| error(field("spin_axis"), m))?;
+                }
+                (_, Some(_)) => {
+                    return Err(error(
+                        field("spin_axis"),
+                        format!("`{name}` takes no spin_axis; remove it"),
+                    ))
+                }
+                (_, None) => {}
+            }
+        }
+        Ok(())
+    }
+}
+
+fn unit_vector(field: &str, v: Option<[Real; 3]>, name: &str) -> Result<Vec3, String> {
+    let Some(v) = v else {
+        return Err(format!("`{name}` needs {field} = [x, y, z]"));
+    };
+    let v = Vec3::from(v);
+    let norm = v.norm();
+    if norm.is_finite() && norm > 0.0 {
+        Ok(v / norm)
+    } else {
+        Err(format!("expected a non-zero finite vector, got {v:?}"))
+    }
+}
+
+/// One measured check.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Outcome {
+    /// The check.
+    pub quantity: Quantity,
+    /// The measured value (`None` when the run never produced it, see `note`).
+    pub measured: Option<Real>,
+    /// The reference.
+    pub reference: Real,
+    /// The relative tolerance.
+    pub tolerance: Real,
+    /// Why nothing was measured, when so.
+    pub note: Option<String>,
+}
+
+impl Outcome {
+    /// `|measured − reference| / |reference|`, if measured.
+    pub fn relative_error(&self) -> Option<Real> {
+        self.measured
+            .map(|m| (m - self.reference).abs() / self.reference.abs())
+    }
+
+    /// Whether the measurement is within the tolerance.
+    pub fn passed(&self) -> bool {
+        self.relative_error().is_some_and(|e| e <= self.tolerance)
+    }
+}
+
+/// Particle 1's state at one step.
+#[derive(Debug, Clone, Copy)]
+struct State {
+    time_s: Real,
+    velocity_m_s: Vec3,
+    spin: Vec3,
+}
+
+/// The first impact of particle 1, as it unfolds.
+#[derive(Debug, Clone, Copy)]
+enum Impact {
+    /// Not yet touching.
+    Approaching,
+    /// Touching since `start_s` along `normal` (towards particle 1).
+    Touching {
+        start_s: Real,
+        normal: Vec3,
+        partner: Option<u32>,
+        approach_m_s: Vec3,
+    },
+    /// Over.
+    Done {
+        duration_s: Real,
+        normal: Vec3,
+        approach_m_s: Vec3,
+        rebound_m_s: Vec3,
+        spin_after: Vec3,
+    },
+}
+
+/// What particle 1 touches now: the unit normal towards it and the other particle's
+/// id, or `None` when it touches nothing. A wall comes before a particle.
+fn touching(simulation: &Simulation) -> Option<(Vec3, Option<u32>)> {
+    if let Some(contact) = simulation.wall_contacts(0).first() {
+        return Some((contact.normal, None));
+    }
+    let p = &simulation.particles;
+    (1..p.len()).find_map(|j| {
+        let offset = p.position_m[0] - p.position_m[j];
+        let distance = offset.norm();
+        (distance < p.radius_m[0] + p.radius_m[j] && distance > 0.0)
+            .then(|| (offset / distance, Some(p.id[j])))
+    })
+}
+
+/// Particle 1's velocity relative to `partner` (a fixed wall when `None`), m/s, from
+/// the ids and velocities of every particle.
+fn relative_velocity(ids: &[u32], velocities_m_s: &[Vec3], partner: Option<u32>) -> Vec3 {
+    let other = partner
+        .and_then(|id| ids.binary_search(&id).ok())
+        .map_or(Vec3::zeros(), |j| velocities_m_s[j]);
+    velocities_m_s[0] - other
+}
+
+/// Why a verification run stopped before measuring.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum VerifyError {
+    /// The case has no `[verify]` table.
+    #[error("the case has no [verify] table; add one naming the quantities to check, or run it with `orch-dem run`")]
+    NoTable,
+    /// The table cannot be measured.
+    #[error(transparent)]
+    Table(#[from] VerifyTableError),
+    /// The run went unstable.
+    #[error(transparent)]
+    Unstable(#[from] Unstable),
+}
+
+/// Steps `simulation` for up to `end_time_s` (stopping once every check is measured)
+/// and measures the checks of `verify` on particle 1.
+pub fn run(
+    simulation: &mut Simulation,
+    verify: &Verify,
+    end_time_s: Real,
+) -> Result<Vec<Outcome>, VerifyError> {
+    verify.validate(end_time_s, simulation.particles.len())?;
+    let dt = simulation.config().timestep_s;
+    let steps = (end_time_s / dt).round() as u64;
+    let wants_impact = verify.check.iter().any(|c| !c.quantity.uses_window());
+    let last_window_s = verify
+        .check
+        .iter()
+        .filter_map(|c| c.window.map(|w| w[1]))
+        .fold(Real::NEG_INFINITY, Real::max);
+    // The first states at or after each window bound, by check.
+    let mut windows: Vec<[Option<State>; 2]> = vec![[None, None]; verify.check.len()];
+    let mut impact = Impact::Approaching;
+    // Every particle's id and velocity at the previous step: an impact's approach
+    // velocity is the one of the step before the contact began.
+    let mut previous: (Vec<u32>, Vec<Vec3>) = (Vec::new(), Vec::new());
+    for step in 0..=steps {
+        if step > 0 {
+            simulation.step()?;
+        }
+        let p = &simulation.particles;
+        let state = State {
+            time_s: simulation.time_s(),
+            velocity_m_s: p.velocity_m_s[0],
+            spin: p.angular_velocity[0],
+        };
+        for (check, recorded) in verify.check.iter().zip(&mut windows) {
+            if let Some(window) = check.window {
+                for (slot, at) in recorded.iter_mut().zip(window) {
+                    if slot.is_none() && state.time_s >= at - 0.5 * dt {
+                        *slot = Some(state);
+                    }
+                }
+            }
+        }
+        impact = match (impact, touching(simulation)) {
+            (Impact::Approaching, Some((normal, partner))) => Impact::Touching {
+                start_s: state.time_s,
+                normal,
+                partner,
+                approach_m_s: if step == 0 {
+                    relative_velocity(&p.id, &p.velocity_m_s, partner)
+                } else {
+                    relative_velocity(&previous.0, &previous.1, partner)
+                },
+            },
+            (
+                Impact::Touching {
+                    start_s,
+                    normal,
+                    partner,
+                    approach_m_s,
+                },
+                None,
+            ) => Impact::Done {
+                duration_s: state.time_s - start_s,
+                normal,
+                approach_m_s,
+                rebound_m_s: relative_velocity(&p.id, &p.velocity_m_s, partner),
+                spin_after: state.spin,
+            },
+            (impact, _) => impact,
+        };
+        if wants_impact && matches!(impact, Impact::Approaching) {
+            previous.0.clone_from(&p.id);
+            previous.1.clone_from(&p.velocity_m_s);
+        }
+        let impact_over = !wants_impact || matches!(impact, Impact::Done { .. });
+        if impact_over && state.time_s >= last_window_s - 0.5 * dt {
+            break;
+        }
+    }
+    Ok(verify
+        .check
+        .iter()
+        .zip(&windows)
+        .map(|(check, recorded)| measure(check, recorded, &impact, simulation))
+        .collect())
+}
+
+fn measure(
+    check: &Check,
+    recorded: &[Option<State>; 2],
+    impact: &Impact,
+    simulation: &Simulation,
+) -> Outcome {
+    let measured = if check.quantity.uses_window() {
+        match recorded {
+            [Some(a), Some(b)] => Ok(window_value(check, a, b, simulation)),
+            _ => Err("the run ended before the window; lengthen run.end_time".to_string()),
+        }
+    } else {
+        match *impact {
+            Impact::Done {
+                duration_s,
+                normal,
+                approach_m_s,
+                rebound_m_s,
+                spin_after,
+            } => {
+                let tangential = |v: Vec3| (v - v.dot(&normal) * normal).norm();
+                Ok(match check.quantity {
+                    Quantity::Restitution => rebound_m_s.dot(&normal) / -approach_m_s.dot(&normal),
+                    Quantity::ContactDuration => duration_s,
+                    Quantity::TangentialSpeedLoss => {
+                        tangential(approach_m_s) - tangential(rebound_m_s)
+                    }
+                    _ => spin_after.norm(),
+                })
+            }
+            Impact::Touching { .. } => Err(
+                "particle 1 was still in contact at the end; lengthen run.end_time".to_string(),
+            ),
+            Impact::Approaching => Err(
+                "particle 1 never touched a wall or another particle; aim it at one or lengthen run.end_time"
+                    .to_string(),
+            ),
+        }
+    };
+    let (measured, note) = match measured {
+        Ok(value) => (Some(value), None),
+        Err(note) => (None, Some(note)),
+    };
+    Outcome {
+        quantity: check.quantity,
+        measured,
+        reference: check.reference,
+        tolerance: check.tolerance,
+        note,
+    }
+}
+
+/// A window quantity from the states at its two ends (the table was validated).
+fn window_value(check: &Check, a: &State, b: &State, simulation: &Simulation) -> Real {
+    let unit = |v: Option<[Real; 3]>| {
+        let v = Vec3::from(v.unwrap_or([1.0, 0.0, 0.0]));
+        v / v.norm()
+    };
+    let direction = unit(check.direction);
+    let dv = (b.velocity_m_s - a.velocity_m_s).dot(&direction);
+    match check.quantity {
+        Quantity::Acceleration => dv / (b.time_s - a.time_s),
+        _ => {
+            let dw = (b.spin - a.spin).dot(&unit(check.spin_axis));
+            simulation.particles.radius_m[0] * dw / dv
+        }
+    }
+}

@@ -1,0 +1,120 @@
+//! The verification set `dem/verification/` (what `orch-dem verify` runs) passes, and
+//! each file's reference is what theory gives for the file's own inputs, so a case
+//! edited without its reference (or the reverse) fails here.
+
+use std::path::{Path, PathBuf};
+
+use orch_dem::case::Case;
+use orch_dem::force::hertz_contact_time_s;
+use orch_dem::material::PairConstants;
+use orch_dem::verify::{self, Quantity};
+use orch_dem::Simulation;
+
+fn folder() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("verification")
+}
+
+/// Every case file of the set, parsed and built with its meshes.
+fn cases() -> Vec<(String, Case, Simulation)> {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(folder())
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    files.sort();
+    files
+        .into_iter()
+        .map(|file| {
+            let name = file.file_stem().unwrap().to_string_lossy().into_owned();
+            let case = Case::parse(&std::fs::read_to_string(&file).unwrap())
+                .unwrap_or_else(|e| panic!("{name}: {e}"));
+            let walls = (0..case.meshes.len())
+                .map(|k| {
+                    let stl = std::fs::read(folder().join(&case.meshes[k].file)).unwrap();
+                    case.wall_mesh(k, &stl).unwrap()
+                })
+                .collect();
+            let simulation = case.build(walls).unwrap();
+            (name, case, simulation)
+        })
+        .collect()
+}
+
+#[test]
+fn every_verification_case_passes() {
+    let all = cases();
+    assert!(all.len() >= 9, "found only {} cases", all.len());
+    for (name, case, mut simulation) in all {
+        let table = case.verify.as_ref().expect("a [verify] table");
+        let outcomes = verify::run(&mut simulation, table, case.run.end_time).unwrap();
+        assert_eq!(outcomes.len(), table.check.len());
+        for o in outcomes {
+            assert!(
+                o.passed(),
+                "{name}: {} measured {:?}, reference {}, tolerance {} ({:?})",
+                o.quantity.name(),
+                o.measured,
+                o.reference,
+                o.tolerance,
+                o.note
+            );
+        }
+    }
+}
+
+#[test]
+fn each_reference_follows_from_the_case_inputs() {
+    for (name, case, simulation) in cases() {
+        let table = case.verify.as_ref().unwrap();
+        let kind = &simulation.types()[simulation.particles.kind[0] as usize];
+        let wall = &simulation.config().wall_material;
+        let g = simulation.config().gravity_m_s2;
+        let two = simulation.particles.len() == 2;
+        let pair = if two {
+            PairConstants::between(&kind.material, &kind.material)
+        } else {
+            PairConstants::between(&kind.material, wall)
+        };
+        let v = &simulation.particles.velocity_m_s;
+        let speed = if two {
+            (v[0] - v[1]).norm()
+        } else {
+            v[0].norm()
+        };
+        let (vn, vt) = (-v[0].z, v[0].x);
+        let e = kind.material.restitution.min(wall.restitution);
+        let mu = pair.friction;
+        let tan_theta = g.x / -g.z;
+        for check in &table.check {
+            let expected = match check.quantity {
+                Quantity::Restitution => e,
+                Quantity::ContactDuration => {
+                    let (m, r) = if two {
+                        (kind.mass_kg() / 2.0, kind.radius_m / 2.0)
+                    } else {
+                        (kind.mass_kg(), kind.radius_m)
+                    };
+                    hertz_contact_time_s(m, r, pair.effective_youngs_pa, speed)
+                }
+                Quantity::TangentialSpeedLoss => {
+                    assert!(
+                        vt > 3.5 * mu * (1.0 + e) * vn,
+                        "{name} must slide throughout"
+                    );
+                    mu * (1.0 + e) * vn
+                }
+                Quantity::ReboundSpin => 2.5 * mu * (1.0 + e) * vn / kind.radius_m,
+                Quantity::Acceleration if tan_theta <= 3.5 * mu => 5.0 / 7.0 * g.x,
+                Quantity::Acceleration => g.x + mu * g.z,
+                Quantity::RollingRatio if tan_theta <= 3.5 * mu => 1.0,
+                Quantity::RollingRatio => 2.5 * mu / (tan_theta - mu),
+            };
+            assert!(
+                (check.reference - expected).abs() <= 1e-6 * expected.abs(),
+                "{name}: {} reference {} but theory gives {expected}",
+                check.quantity.name(),
+                check.reference
+            );
+        }
+    }
+}

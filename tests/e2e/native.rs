@@ -221,3 +221,56 @@ fn the_cone_shape_study_finds_the_concave_corner_faster_than_the_straight_cone()
     assert_eq!(optimum["factors"]["shape_x1"].as_f64(), Some(-0.008));
     assert_eq!(optimum["factors"]["shape_x2"].as_f64(), Some(0.008));
 }
+
+/// `orch-dem verify` as a user runs it: the shipped verification set passes, and a case
+/// whose reference is wrong fails with exit 1 and says which.
+#[test]
+fn orch_dem_verify_passes_the_shipped_cases_and_fails_a_wrong_reference() {
+    let orch_dem = crate::support::orch_bin().with_file_name("orch-dem");
+    let cases = root().join("dem/verification");
+    let output = std::process::Command::new(&orch_dem)
+        .arg("verify")
+        .arg(&cases)
+        .output()
+        .unwrap();
+    let stdout = text(&output.stdout);
+    assert_eq!(
+        output.status.code(),
+        Some(0),
+        "{stdout}{}",
+        text(&output.stderr)
+    );
+    let checks = stdout
+        .lines()
+        .filter(|l| l.ends_with(" pass") && !l.contains("checks pass"))
+        .count();
+    assert!(
+        checks >= 15 && stdout.contains(&format!("{checks} of {checks} checks pass")),
+        "{stdout}"
+    );
+
+    let project = Project::new();
+    std::fs::create_dir_all(project.dir.path().join("verification")).unwrap();
+    let wrong = std::fs::read_to_string(cases.join("restitution_wall_e05.toml"))
+        .unwrap()
+        .replace("reference = 0.5\n", "reference = 0.6\n");
+    project.write("verification/restitution_wall_e05.toml", &wrong);
+    std::fs::copy(
+        cases.join("floor.stl"),
+        project.dir.path().join("verification/floor.stl"),
+    )
+    .unwrap();
+    let output = std::process::Command::new(&orch_dem)
+        .arg("verify")
+        .arg(project.dir.path().join("verification"))
+        .output()
+        .unwrap();
+    let stdout = text(&output.stdout);
+    assert_eq!(output.status.code(), Some(1), "{stdout}");
+    assert!(
+        stdout
+            .lines()
+            .any(|l| l.starts_with("restitution_wall_e05") && l.contains("FAIL")),
+        "{stdout}"
+    );
+}

@@ -190,7 +190,10 @@ fn the_report_of_a_small_study_renders_in_headless_chromium_with_its_figures() {
         per_response + 1 + series,
         "<svg> elements in the rendered DOM"
     );
-    assert!(dom.contains("Sobol indices"), "the rendered report lacks Sobol indices");
+    assert!(
+        dom.contains("Sobol indices"),
+        "the rendered report lacks Sobol indices"
+    );
     for title in [
         "<title>small: report</title>",
         "Definitions",

@@ -11,7 +11,10 @@
 
 use std::path::Path;
 
-use orch_granular::responses::{cumulative_mass_series, mass_flow_series};
+use orch_granular::responses::{
+    cumulative_mass_series, mass_flow_series, radial_densities, RadialDensities,
+};
+use orch_granular::steady::BATCHES;
 use orch_granular::{DischargeResponses, HopperGeometry, ResponseOptions};
 use tera::Context;
 
@@ -28,23 +31,51 @@ pub struct Hopper;
 /// Width of the bins of the stored mass-flow-rate series, s.
 pub const MASS_FLOW_BIN_S: f64 = 0.02;
 
-/// The hopper's scalar responses, from the particles that crossed its sensor plane.
+/// The hopper's scalar responses, from the particles that crossed its sensor plane
+/// (definitions and reasons: docs/method.md, "Responses of the hopper").
 pub static RESPONSES: &[ResponseSpec] = &[
     response("discharged_count", "-", "particles that crossed the sensor plane"),
     response("discharged_mass", "kg", "mass that crossed the sensor plane"),
     response(
         "discharge_rate",
         "kg/s",
-        "steady discharge rate: least-squares slope of the discharged mass between 20 % and 80 % of the total",
+        "steady discharge rate: least-squares slope of the discharged mass over the steady window (the longest run of local rates within 25 % of the median)",
     ),
-    response("R1_mean", "m", "mean radial distance of fine particles at the sensor plane"),
-    response("R2_mean", "m", "mean radial distance of coarse particles at the sensor plane"),
+    response(
+        "discharge_rate_ci95",
+        "kg/s",
+        "half-width of the 95 % confidence interval of discharge_rate, by batch means over the steady window",
+    ),
+    response(
+        "R1_mean",
+        "m",
+        "mean radial distance of the centres of fine particles at the sensor plane",
+    ),
+    response(
+        "R2_mean",
+        "m",
+        "mean radial distance of the centres of coarse particles at the sensor plane",
+    ),
     response(
         "segregation_ratio",
         "-",
         "R1_mean / R2_mean; below 1 the fines are nearer the axis",
     ),
-    response("stream_radius", "m", "largest radial distance of any crossing"),
+    response(
+        "segregation_ratio_normalised",
+        "-",
+        "segregation_ratio over its value for a perfectly mixed stream whose centres keep a particle radius from its edge, (R_s - r_fine)/(R_s - r_coarse); 1 = no segregation beyond that geometric bias",
+    ),
+    response(
+        "stream_radius",
+        "m",
+        "largest radial distance of any crossing's centre",
+    ),
+    response(
+        "stream_radius_95",
+        "m",
+        "robust stream radius R_s: 95 % mass quantile of the particles' surface distances from the axis (centre distance + radius)",
+    ),
     response(
         "exit_speed",
         "m/s",
@@ -53,26 +84,26 @@ pub static RESPONSES: &[ResponseSpec] = &[
     response(
         "fine_fraction_outer_2",
         "-",
-        "mass fraction of fines in the outer 2 % of the stream radius",
+        "mass fraction of fines among the particles whose surface reaches beyond 98 % of stream_radius_95",
     ),
     response(
         "fine_fraction_outer_5",
         "-",
-        "mass fraction of fines in the outer 5 % of the stream radius",
+        "mass fraction of fines among the particles whose surface reaches beyond 95 % of stream_radius_95",
     ),
     response(
         "fine_fraction_outer_10",
         "-",
-        "mass fraction of fines in the outer 10 % of the stream radius",
+        "mass fraction of fines among the particles whose surface reaches beyond 90 % of stream_radius_95",
     ),
     response(
         "fine_fraction_outer_12",
         "-",
-        "mass fraction of fines in the outer 12 % of the stream radius",
+        "mass fraction of fines among the particles whose surface reaches beyond 88 % of stream_radius_95",
     ),
 ];
 
-/// The hopper's series.
+/// The hopper's series. The radial densities are over radius (m), not time.
 pub static SERIES: &[ResponseSpec] = &[
     response(
         "mass_flow_rate",
@@ -88,6 +119,16 @@ pub static SERIES: &[ResponseSpec] = &[
         "kinetic_energy",
         "J",
         "kinetic energy of all particles, over time (LIGGGHTS and native)",
+    ),
+    response(
+        "radial_density_fine",
+        "1/m",
+        "probability density of the radial distance of fine particles' centres at the sensor plane, over radius in m (20 bins to the largest distance)",
+    ),
+    response(
+        "radial_density_coarse",
+        "1/m",
+        "probability density of the radial distance of coarse particles' centres at the sensor plane, over radius in m (same bins as the fines')",
     ),
 ];
 
@@ -136,7 +177,8 @@ impl Equipment for Hopper {
 
     fn results(&self, case: &Case, observations: &Observations) -> RunResults {
         let crossings = &observations.crossings;
-        let responses = DischargeResponses::compute(crossings, &ResponseOptions::default());
+        let options = ResponseOptions::default();
+        let responses = DischargeResponses::compute(crossings, &options);
         let named = responses.named();
         let crossed = crossings.len();
         let inserted = case.get("n_particles").round();
@@ -144,9 +186,16 @@ impl Equipment for Hopper {
             .iter()
             .filter(|spec| !named.iter().any(|(name, _)| *name == spec.name))
             .map(|spec| {
-                let why = if spec.name == "discharge_rate" {
+                let rate = spec.name == "discharge_rate" || spec.name == "discharge_rate_ci95";
+                let why = if rate && responses.steady.is_none() {
                     format!(
                         "no steady discharge: {crossed} of {inserted} particles crossed the sensor plane (is the outlet jammed, or the run too short?)"
+                    )
+                } else if rate {
+                    format!(
+                        "the steady window holds fewer than {} crossings, too few for {} batches",
+                        2 * BATCHES,
+                        BATCHES
                     )
                 } else {
                     format!("the {crossed} particles that crossed the sensor plane cannot define it (one of the sizes missing?)")
@@ -164,6 +213,18 @@ impl Equipment for Hopper {
                 points: cumulative_mass_series(crossings),
             },
         ];
+        let RadialDensities { fine, coarse } = radial_densities(crossings, &options);
+        for (name, points) in [
+            ("radial_density_fine", fine),
+            ("radial_density_coarse", coarse),
+        ] {
+            if !points.is_empty() {
+                series.push(Series {
+                    name: name.to_string(),
+                    points,
+                });
+            }
+        }
         series.extend(observations.series.iter().cloned());
         RunResults {
             responses: named,

@@ -85,7 +85,8 @@ pub struct CommandSpec {
 pub struct Series {
     /// Name, e.g. `mass_flow_rate`.
     pub name: String,
-    /// `(time s, value)` pairs.
+    /// `(abscissa, value)` pairs: time in s, unless the series' declaration says
+    /// otherwise (the hopper's radial densities are over radius in m).
     pub points: Vec<(f64, f64)>,
 }
 

@@ -14,6 +14,9 @@
 //!   particle, with interpolated time and position.
 //! - [`responses`]: discharge rate, radial segregation and fine fraction in the outer
 //!   layers of the stream (SCIENCE.md §4), and the reference formulas.
+//! - [`steady`]: the steady window of a discharge, its rate and 95 % interval.
+//! - [`radial`]: radial statistics of a stream's crossings (stream radius, outer
+//!   layers, densities).
 
 pub mod air;
 pub mod chute;
@@ -21,9 +24,13 @@ pub mod crossing;
 pub mod geometry;
 pub mod mesh;
 pub mod profile;
+pub mod radial;
 pub mod reference;
 pub mod responses;
+pub mod steady;
 pub mod stream;
+#[cfg(test)]
+pub(crate) mod synthetic;
 
 pub use chute::{ChuteError, ChuteGeometry};
 pub use crossing::{Crossing, CrossingDetector, Sighting};

@@ -274,3 +274,63 @@ fn orch_dem_verify_passes_the_shipped_cases_and_fails_a_wrong_reference() {
         "{stdout}"
     );
 }
+
+/// Issue 15: the fine fraction of the outer layers was 1.0 in 15 of 15 runs of the
+/// vibration-segregation design, because the layers were measured against the one
+/// outermost centre, which only a fine particle reaches. Measured by particle surfaces
+/// against the robust stream radius, every layer's fraction varies across the design,
+/// and the radial densities of both kinds are stored as series.
+#[test]
+fn outer_layer_fractions_vary_across_the_vibration_segregation_design() {
+    let _lock = solver_lock();
+    let project = Project::new();
+    let study = std::fs::read_to_string(root().join("jobs/vibration-segregation.yaml")).unwrap();
+    let file = project.write("vibration-segregation.yaml", &study);
+    let output = project.run(&["submit", file.to_str().unwrap()]);
+    assert_eq!(output.status.code(), Some(0), "{}", text(&output.stderr));
+    let status = project.status("vibration-segregation");
+    assert_eq!(count(&status, "succeeded"), 15, "{status:#}");
+    let jobs = status["jobs"].as_array().unwrap();
+    let value = |job: &serde_json::Value, name: &str| {
+        job["responses"][name]
+            .as_f64()
+            .unwrap_or_else(|| panic!("{} has no {name}: {job:#}", job["name"]))
+    };
+    for job in jobs {
+        let rate = value(job, "discharge_rate");
+        let half_width = value(job, "discharge_rate_ci95");
+        eprintln!(
+            "{}: a = {:.5} m, f = {:.1} Hz, h = {:.4} m; outer 2/5/10/12 % = {:.3} {:.3} {:.3} {:.3}; R1/R2 = {:.3}, normalised {:.3}; rate {rate:.4} ± {half_width:.4} kg/s",
+            job["name"].as_str().unwrap(),
+            job["factors"]["amplitude"].as_f64().unwrap(),
+            job["factors"]["frequency"].as_f64().unwrap(),
+            job["factors"]["valve_gap"].as_f64().unwrap(),
+            value(job, "fine_fraction_outer_2"),
+            value(job, "fine_fraction_outer_5"),
+            value(job, "fine_fraction_outer_10"),
+            value(job, "fine_fraction_outer_12"),
+            value(job, "segregation_ratio"),
+            value(job, "segregation_ratio_normalised"),
+        );
+        assert!(
+            half_width > 0.0 && half_width < 0.5 * rate,
+            "{rate} ± {half_width}"
+        );
+    }
+    for layer in [2, 5, 10, 12] {
+        let name = format!("fine_fraction_outer_{layer}");
+        let values: Vec<f64> = jobs.iter().map(|job| value(job, &name)).collect();
+        let (min, max) = values
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| {
+                (lo.min(v), hi.max(v))
+            });
+        assert!(max > min, "{name} is {min} in every run");
+        let saturated = values.iter().filter(|&&v| v == 1.0 || v == 0.0).count();
+        assert_eq!(saturated, 0, "{name}: {values:?}");
+    }
+    let rows = project.query(
+        "SELECT COUNT(DISTINCT job_id) FROM series WHERE name IN ('radial_density_fine', 'radial_density_coarse')",
+    );
+    assert_eq!(rows[0][0], "15", "every run stores its radial densities");
+}

@@ -28,6 +28,9 @@ pub struct ResponseSpec {
     pub unit: Cow<'static, str>,
     /// What it measures.
     pub description: Cow<'static, str>,
+    /// A series' abscissa with its unit, `t [s]` for a time series (`r [m]` for a
+    /// radial density); unused by a scalar response.
+    pub over: Cow<'static, str>,
 }
 
 /// The horizontal plane below or beside the equipment where particles are watched:
@@ -102,5 +105,24 @@ pub(crate) const fn response(
         name: Cow::Borrowed(name),
         unit: Cow::Borrowed(unit),
         description: Cow::Borrowed(description),
+        over: Cow::Borrowed(TIME_AXIS),
+    }
+}
+
+/// The abscissa of a time series.
+pub const TIME_AXIS: &str = "t [s]";
+
+/// A series over something other than time: `over` names the abscissa with its unit.
+pub(crate) const fn series_over(
+    name: &'static str,
+    unit: &'static str,
+    description: &'static str,
+    over: &'static str,
+) -> ResponseSpec {
+    ResponseSpec {
+        name: Cow::Borrowed(name),
+        unit: Cow::Borrowed(unit),
+        description: Cow::Borrowed(description),
+        over: Cow::Borrowed(over),
     }
 }

@@ -18,7 +18,7 @@ use orch_granular::steady::BATCHES;
 use orch_granular::{DischargeResponses, HopperGeometry, ResponseOptions};
 use tera::Context;
 
-use crate::equipment::{response, Equipment, ResponseSpec, SensorPlane};
+use crate::equipment::{response, series_over, Equipment, ResponseSpec, SensorPlane};
 use crate::params::spec;
 use crate::primes::prime_seed;
 use crate::simulation::write;
@@ -120,15 +120,17 @@ pub static SERIES: &[ResponseSpec] = &[
         "J",
         "kinetic energy of all particles, over time (LIGGGHTS and native)",
     ),
-    response(
+    series_over(
         "radial_density_fine",
         "1/m",
         "probability density of the radial distance of fine particles' centres at the sensor plane, over radius in m (20 bins to the largest distance)",
+        "r [m]",
     ),
-    response(
+    series_over(
         "radial_density_coarse",
         "1/m",
         "probability density of the radial distance of coarse particles' centres at the sensor plane, over radius in m (same bins as the fines')",
+        "r [m]",
     ),
 ];
 

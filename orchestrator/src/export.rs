@@ -74,6 +74,20 @@ pub fn unit_of(study: Option<&Study>, name: &str) -> Option<String> {
         .map(|s| s.unit.to_string())
 }
 
+/// The abscissa of series `name` with its unit, as the study's equipment (or deck)
+/// declares it: `t [s]` for a time series, and for any series it does not declare.
+pub fn abscissa_of(study: Option<&Study>, name: &str) -> String {
+    study
+        .and_then(|s| {
+            s.simulation
+                .series()
+                .iter()
+                .find(|spec| spec.name == name)
+                .map(|spec| spec.over.to_string())
+        })
+        .unwrap_or_else(|| orch_adapters::equipment::TIME_AXIS.to_string())
+}
+
 impl Table {
     /// The table as CSV text (RFC 4180).
     pub fn to_csv(&self) -> String {
@@ -231,7 +245,8 @@ pub async fn runs_table(
     Ok(Table { headers, rows })
 }
 
-/// Every series of every job in long form: `job, series, unit, t [s], value`.
+/// Every series of every job in long form: `job, series, unit, over, x, value`, where
+/// `over` names the abscissa with its unit (`t [s]`, or `r [m]` for a radial density).
 pub async fn series_table(
     store: &Store,
     row: &StudyRow,
@@ -243,31 +258,35 @@ pub async fn series_table(
         .into_iter()
         .map(|j| (j.id, j.name))
         .collect();
-    let mut units: HashMap<String, Cell> = HashMap::new();
+    let mut units: HashMap<String, (Cell, Cell)> = HashMap::new();
     let rows = store
         .study_series(row.id)
         .await?
         .into_iter()
         .map(|(job_id, series, t, value)| {
-            let unit = units
+            let (unit, over) = units
                 .entry(series.clone())
                 .or_insert_with(|| {
-                    unit_of(study, &series)
-                        .map(Cell::Text)
-                        .unwrap_or(Cell::Empty)
+                    (
+                        unit_of(study, &series)
+                            .map(Cell::Text)
+                            .unwrap_or(Cell::Empty),
+                        Cell::Text(abscissa_of(study, &series)),
+                    )
                 })
                 .clone();
             vec![
                 Cell::Text(names.get(&job_id).cloned().unwrap_or_default()),
                 Cell::Text(series),
                 unit,
+                over,
                 Cell::Real(t),
                 Cell::Real(value),
             ]
         })
         .collect();
     Ok(Table {
-        headers: ["job", "series", "unit", "t [s]", "value"]
+        headers: ["job", "series", "unit", "over", "x", "value"]
             .iter()
             .map(|s| s.to_string())
             .collect(),

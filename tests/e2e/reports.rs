@@ -118,10 +118,19 @@ fn export_writes_one_csv_row_per_run_with_units_that_python_reads_and_series_in_
     ]);
     assert_eq!(output.status.code(), Some(0), "{}", text(&output.stderr));
     let series = python_csv(&series_csv);
-    assert_eq!(series[0], ["job", "series", "unit", "t [s]", "value"]);
+    assert_eq!(series[0], ["job", "series", "unit", "over", "x", "value"]);
     let stored = project.query("SELECT COUNT(*) FROM series");
     assert_eq!((series.len() - 1).to_string(), stored[0][0]);
-    assert!(series[1..].iter().all(|r| r[3].parse::<f64>().is_ok()));
+    assert!(series[1..].iter().all(|r| r[4].parse::<f64>().is_ok()));
+    // Time series are over t, the radial densities over r.
+    for row in &series[1..] {
+        let expected = if row[1].starts_with("radial_density") {
+            "r [m]"
+        } else {
+            "t [s]"
+        };
+        assert_eq!(row[3], expected, "{row:?}");
+    }
     assert!(
         series[1..].iter().any(|r| r[2] == "kg/s"),
         "a unit per series"

@@ -96,7 +96,7 @@ fn two_rounds_zoom_in_around_the_first_optimum_and_status_shows_the_metamodel() 
     let fits = text(&fits.stdout);
     assert!(
         fits.starts_with(
-            "round 0, discharge_rate (quadratic, all 15 terms, legendre basis, 15 runs)\n"
+            "round 0, discharge_rate (quadratic, all 10 terms, legendre basis, 15 runs)\n"
         ),
         "{fits}"
     );

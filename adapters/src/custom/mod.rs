@@ -107,6 +107,7 @@ impl CustomDeck {
                 name: r.name.clone().into(),
                 unit: r.unit.clone().into(),
                 description: format!("declared: {} of {}", r.reduce.name(), r.source).into(),
+                over: crate::equipment::TIME_AXIS.into(),
             })
             .collect();
         Ok(CustomDeck {

@@ -826,9 +826,10 @@ async fn runs_section(store: &Store, data: &Data<'_>) -> Result<String, StoreErr
             .iter()
             .map(|(j, p)| (j.clone(), decimate(p, MAX_LINE_POINTS)))
             .collect();
+        let over = crate::export::abscissa_of(data.study, name);
         let svg = plots::lines(
             &format!("Series: {name}"),
-            "t [s]",
+            &over,
             &label(name, &unit),
             &lines,
             &[],
@@ -837,7 +838,7 @@ async fn runs_section(store: &Store, data: &Data<'_>) -> Result<String, StoreErr
         );
         out.push_str(&figure(
             &svg,
-            &format!("{} over time, one line per run.", escape(name)),
+            &format!("{} over {}, one line per run.", escape(name), escape(&over)),
         ));
     }
     Ok(out)

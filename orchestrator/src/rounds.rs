@@ -12,7 +12,7 @@ use std::path::Path;
 
 use orch_metamodel::propose::converged;
 use orch_metamodel::surrogate::{choose, Choice, Surrogate};
-use orch_metamodel::{lack_of_fit, BasisKind, Goal};
+use orch_metamodel::{lack_of_fit, BasisKind, Goal, KrigingOptions, Nugget};
 
 use crate::store::{
     CandidateScore, Decision, FitRecord, JobState, LackOfFitRow, RoundRecord, Store, StoreError,
@@ -159,12 +159,25 @@ async fn analyse(
         BasisKind::Monomial => "monomial",
     };
     let responses = fitted_responses(study);
-    let data = observed(store, study_id, round, &responses).await?;
+    // A response whose runs also report its 95 % interval (`<name>_ci95`, as the
+    // hopper's discharge rate does) tells Kriging its run-to-run noise.
+    let with_intervals: Vec<String> = responses
+        .iter()
+        .flat_map(|r| [r.clone(), interval_name(r)])
+        .collect();
+    let data = observed(store, study_id, round, &with_intervals).await?;
     let options = study.metamodel.kriging_options(study.seed);
     let mut fits = Vec::new();
     for response in &responses {
         let observed = &data[response];
         let (x, y) = (&observed.design.0, &observed.design.1);
+        let options = match noise_from_intervals(x, y, &data[&interval_name(response)]) {
+            Some(variance) => KrigingOptions {
+                nugget: Nugget::Fixed(variance),
+                ..options.clone()
+            },
+            None => options.clone(),
+        };
         let choice = choose(
             study.metamodel.model,
             study.metamodel.basis,
@@ -334,6 +347,31 @@ async fn previous_optimum(
         .find(|r| r.round == round - 1)
         .and_then(|r| r.optimum)
         .map(|o| o.2))
+}
+
+/// The response that holds the half-width of `response`'s 95 % interval in each run.
+fn interval_name(response: &str) -> String {
+    format!("{response}_ci95")
+}
+
+/// The run-to-run noise variance of a response whose runs report the half-width of
+/// its 95 % interval (`intervals`): the mean of `(half-width / 1.96)²` over the design
+/// runs, when every design run reports one and no point is replicated (replicates
+/// measure the noise directly, and Kriging takes it from them).
+fn noise_from_intervals(x: &[Vec<f64>], y: &[f64], intervals: &Observed) -> Option<f64> {
+    let (points, half_widths) = &intervals.design;
+    if y.is_empty() || half_widths.len() != y.len() || points.as_slice() != x {
+        return None;
+    }
+    if orch_metamodel::pure_error_variance(x, y).is_some() {
+        return None;
+    }
+    let variance = half_widths
+        .iter()
+        .map(|h| (h / 1.959_963_984_540_054).powi(2))
+        .sum::<f64>()
+        / half_widths.len() as f64;
+    (variance.is_finite() && variance > 0.0).then_some(variance)
 }
 
 /// What the store keeps of one response's model choice on a round's runs.
@@ -998,5 +1036,41 @@ uncertainty:
             .unwrap_or_else(|| panic!("{note}"));
         assert!((p - 0.05).abs() < 0.015, "{note}");
         assert!(note.contains("(100000 samples; allowed 0.05)"), "{note}");
+    }
+
+    #[tokio::test]
+    async fn a_response_with_its_own_interval_gives_kriging_its_noise() {
+        // Every run reports a 95 % half-width of 0.0196 for its rate: noise variance
+        // (0.0196 / 1.96)² ≈ 1e-4, which the Kriging surrogate takes as its nugget.
+        let run = testing::round_run(KRIGING, |coded, _| JobResults {
+            responses: vec![
+                (
+                    "discharge_rate".into(),
+                    (coded[0] - 0.3).powi(2) + (coded[1] + 0.4).powi(2),
+                ),
+                ("discharge_rate_ci95".into(), 0.0196),
+            ],
+            series: vec![],
+            note: None,
+        })
+        .await;
+        advance(&run.store, run.id, &run.study, &run.runs_dir())
+            .await
+            .unwrap();
+        let round = &run.store.rounds(run.id).await.unwrap()[0];
+        let fit = round
+            .fits
+            .iter()
+            .find(|f| f.response == "discharge_rate")
+            .unwrap();
+        let spec = surfaces::spec_from_json(fit.spec.as_deref().unwrap()).unwrap();
+        let orch_metamodel::surrogate::ModelSpec::Kriging { noise_variance, .. } = spec else {
+            panic!("{spec:?}")
+        };
+        let expected = (0.0196f64 / 1.959_963_984_540_054).powi(2);
+        assert!(
+            (noise_variance - expected).abs() < 1e-15,
+            "{noise_variance}"
+        );
     }
 }

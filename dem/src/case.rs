@@ -25,12 +25,23 @@
 //! A radius other than the type's keeps the type's density and material (its mass
 //! follows from the radius); the default time step and skin account for it.
 //!
+//! An `[air]` table drags every particle through air ([`crate::air`], the
+//! Schiller–Naumann drag of a sphere), still or blowing uniformly:
+//!
+//! ```toml
+//! [air]
+//! density = 1.2                   # kg/m³, default 1.2
+//! viscosity = 1.8e-5              # Pa·s, default 1.8e-5
+//! velocity = [0.0, 0.0, 0.0]      # m/s, default still air
+//! ```
+//!
 //! A `[verify]` table makes the case a verification benchmark ([`crate::verify`]):
 //! `orch-dem verify` measures its quantities and compares them with the references;
 //! `orch-dem run` ignores it.
 
 use serde::Deserialize;
 
+use crate::air::Air;
 use crate::inflow::Inflow;
 use crate::insert::{counts_from_mass_fractions, insert, Region};
 use crate::material::{Material, ParticleType};
@@ -74,6 +85,31 @@ pub struct Case {
     /// The quantities a verification case measures and their references (`[verify]`);
     /// only `orch-dem verify` reads it.
     pub verify: Option<Verify>,
+    /// Air that drags every particle (`[air]`); absent: vacuum.
+    pub air: Option<AirEntry>,
+}
+
+/// `[air]`: the air around the particles, still or moving uniformly.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AirEntry {
+    /// Density, kg/m³ (default 1.2, air at 20 °C).
+    #[serde(default = "default_air_density")]
+    pub density: Real,
+    /// Dynamic viscosity, Pa·s (default 1.8e-5, air at 20 °C).
+    #[serde(default = "default_air_viscosity")]
+    pub viscosity: Real,
+    /// Velocity, m/s (default still air).
+    #[serde(default)]
+    pub velocity: [Real; 3],
+}
+
+fn default_air_density() -> Real {
+    1.2
+}
+
+fn default_air_viscosity() -> Real {
+    1.8e-5
 }
 
 /// `[run]`: time stepping and stopping.
@@ -404,6 +440,11 @@ impl Case {
         if let Some(skin) = run.skin {
             finite_positive("run.skin", skin)?;
         }
+        if let Some(air) = &self.air {
+            finite_positive("air.density", air.density)?;
+            finite_positive("air.viscosity", air.viscosity)?;
+            finite("air.velocity", &air.velocity)?;
+        }
         finite("domain.min", &self.domain.min)?;
         finite("domain.max", &self.domain.max)?;
         for k in 0..3 {
@@ -718,6 +759,11 @@ impl Case {
             max_speed_m_s: self.run.max_speed,
             max_overlap_ratio: self.run.max_overlap_ratio,
             wall_material: material(&self.wall_material),
+            air: self.air.as_ref().map(|a| Air {
+                density_kg_m3: a.density,
+                viscosity_pa_s: a.viscosity,
+                velocity_m_s: Vec3::from(a.velocity),
+            }),
         };
         let mut simulation = Simulation::new(config, types, particles, walls)
             .map_err(|e| CaseError::Setup(e.to_string()))?;
@@ -970,5 +1016,39 @@ radius = 0.0005
         let error =
             check("\n[[verify.check]]\nquantity = \"bounce\"\nreference = 0.5\ntolerance = 0.01\n");
         assert!(error.contains("unknown variant `bounce`"), "{error}");
+    }
+
+    #[test]
+    fn air_defaults_to_still_air_at_twenty_degrees_and_is_checked() {
+        let case = Case::parse(&format!("{BASE}{TWO}\n[air]\n")).unwrap();
+        let sim = case.build(vec![]).unwrap();
+        let air = sim.config().air.unwrap();
+        assert_eq!((air.density_kg_m3, air.viscosity_pa_s), (1.2, 1.8e-5));
+        assert_eq!(air.velocity_m_s, Vec3::zeros());
+        let windy =
+            Case::parse(&format!("{BASE}{TWO}\n[air]\nvelocity = [2.0, 0.0, 0.0]\n")).unwrap();
+        assert_eq!(
+            windy
+                .build(vec![])
+                .unwrap()
+                .config()
+                .air
+                .unwrap()
+                .velocity_m_s
+                .x,
+            2.0
+        );
+        // Without [air] there is none.
+        assert!(Case::parse(&format!("{BASE}{TWO}"))
+            .unwrap()
+            .build(vec![])
+            .unwrap()
+            .config()
+            .air
+            .is_none());
+        assert_eq!(
+            error_of(&format!("{TWO}\n[air]\ndensity = -1.0\n")),
+            "`air.density`: expected a positive number, got -1"
+        );
     }
 }

@@ -16,6 +16,7 @@
 #![warn(missing_docs)]
 #![forbid(unsafe_code)]
 
+pub mod air;
 pub mod case;
 pub mod contact;
 pub mod force;

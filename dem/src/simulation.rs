@@ -10,8 +10,8 @@
 //!    ([`crate::inflow`]), and the pair list and wall candidates are rebuilt.
 //! 3. **Pair forces** (parallel over blocks of particles): each pair's Hertz–Mindlin
 //!    force into a per-pair slot, histories updated in place.
-//! 4. **Gather** (parallel over particles): gravity, the particle's pair forces in list
-//!    order, and its wall contacts; the normal approach energy of wall contacts that
+//! 4. **Gather** (parallel over particles): gravity, air drag (when there is air), the
+//!    particle's pair forces in list order, and its wall contacts; the normal approach energy of wall contacts that
 //!    begin is added to the wall impact energy (in index order).
 //! 5. **Kick**: `v += dt/2 F/m`, `ω += dt/2 τ/I`; speeds and overlaps beyond their
 //!    bounds stop the run with [`Unstable`].
@@ -23,6 +23,7 @@ use std::time::{Duration, Instant};
 
 use rayon::prelude::*;
 
+use crate::air::Air;
 use crate::force::{hertz_mindlin, ContactGeometry};
 use crate::inflow::{Inflow, InflowError, InflowState};
 use crate::material::{ContactTable, Material, ParticleType};
@@ -57,6 +58,8 @@ pub struct Config {
     pub max_overlap_ratio: Real,
     /// The material of every wall.
     pub wall_material: Material,
+    /// Air that drags every particle ([`crate::air`]); `None`: vacuum.
+    pub air: Option<Air>,
 }
 
 /// A particle crossing the sensor plane downwards.
@@ -784,6 +787,7 @@ impl Simulation {
             cos_coplanar: self.config.coplanar_angle_deg.to_radians().cos(),
         };
         let gravity = self.config.gravity_m_s2;
+        let air = self.config.air;
         let pairs = &self.pairs;
         let loads = &self.pair_loads;
         let candidates = &self.wall_candidates;
@@ -827,7 +831,8 @@ impl Simulation {
                     kind: kind[i] as usize,
                 };
                 let wall = wall_load(&walls, candidates.of(i), &particle, contacts);
-                *force = f + wall.force_n + mass[i] * gravity;
+                let drag = air.map_or(Vec3::zeros(), |a| a.drag_n(radius[i], velocity[i]));
+                *force = f + wall.force_n + mass[i] * gravity + drag;
                 *torque = t + wall.torque_n_m;
                 *impact = wall.impact_energy_j;
                 (wall.worst_overlap_ratio > 0.0).then_some((wall.worst_overlap_ratio, i))

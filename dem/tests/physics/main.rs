@@ -3,6 +3,7 @@
 //! conservation; plus determinism, the errors of bad input and the verification set
 //! `dem/verification/`.
 
+mod air;
 mod bad_input;
 mod determinism;
 mod energy;
@@ -63,6 +64,7 @@ pub fn config(timestep_s: Real, wall: Material) -> Config {
         max_speed_m_s: 50.0,
         max_overlap_ratio: 0.25,
         wall_material: wall,
+        air: None,
     }
 }
 

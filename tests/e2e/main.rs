@@ -5,6 +5,7 @@
 //! skipped otherwise. Solver tests take a lock so that they do not compete for the
 //! machine's cores.
 
+mod air;
 mod architecture;
 mod chute;
 mod compare;

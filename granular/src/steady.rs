@@ -74,20 +74,6 @@ pub struct SteadyRate {
     pub window_mass_fraction: (f64, f64),
 }
 
-/// `(time s, cumulative mass kg)` at each crossing, in time order.
-fn cumulative(crossings: &[Crossing]) -> Vec<(f64, f64)> {
-    let mut sorted: Vec<&Crossing> = crossings.iter().collect();
-    sorted.sort_by(|a, b| a.time_s.total_cmp(&b.time_s));
-    let mut total = 0.0;
-    sorted
-        .into_iter()
-        .map(|c| {
-            total += c.mass_kg;
-            (c.time_s, total)
-        })
-        .collect()
-}
-
 /// The median of `values` (any order); `None` when empty.
 fn median(values: &[f64]) -> Option<f64> {
     let mut v = values.to_vec();
@@ -162,7 +148,7 @@ fn steady_span(curve: &[(f64, f64)], options: &SteadyOptions) -> Option<(usize, 
 /// The steady rate of `crossings` (any order), with its window and 95 % interval;
 /// `None` when no window of at least [`MIN_STEADY_CROSSINGS`] crossings is steady.
 pub fn steady_rate(crossings: &[Crossing], options: &SteadyOptions) -> Option<SteadyRate> {
-    let curve = cumulative(crossings);
+    let curve = crate::responses::cumulative_mass_series(crossings);
     let (from, to) = steady_span(&curve, options)?;
     let window = &curve[from..=to];
     if window.len() < MIN_STEADY_CROSSINGS {

@@ -103,14 +103,7 @@ pub(crate) fn propose(
     coded.extend(probes);
     let points = coded
         .into_iter()
-        .map(|coded| DesignPoint {
-            natural: coded
-                .iter()
-                .zip(&next_ranges)
-                .map(|(c, r)| r.to_natural(*c))
-                .collect(),
-            coded,
-        })
+        .map(|coded| DesignPoint::in_box(coded, &next_ranges))
         .collect();
     NextRound {
         ranges: next_ranges,

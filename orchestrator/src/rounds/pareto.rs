@@ -122,14 +122,7 @@ pub fn front_samples(
     };
     picked
         .into_iter()
-        .map(|i| DesignPoint {
-            natural: inside[i]
-                .iter()
-                .zip(ranges)
-                .map(|(c, r)| r.to_natural(*c))
-                .collect(),
-            coded: inside[i].clone(),
-        })
+        .map(|i| DesignPoint::in_box(inside[i].clone(), ranges))
         .collect()
 }
 
@@ -289,14 +282,7 @@ pub(super) fn analyse_front(
         let mut next_points: Vec<DesignPoint> = design
             .points
             .into_iter()
-            .map(|coded| DesignPoint {
-                natural: coded
-                    .iter()
-                    .zip(&next_ranges)
-                    .map(|(c, r)| r.to_natural(*c))
-                    .collect(),
-                coded,
-            })
+            .map(|coded| DesignPoint::in_box(coded, &next_ranges))
             .collect();
         let samples = front_samples(
             &record.front,

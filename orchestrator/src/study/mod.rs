@@ -70,6 +70,20 @@ pub struct DesignPoint {
     pub natural: Vec<f64>,
 }
 
+impl DesignPoint {
+    /// The point at `coded` coordinates of the box `ranges` (one per factor).
+    pub fn in_box(coded: Vec<f64>, ranges: &[FactorRange]) -> DesignPoint {
+        DesignPoint {
+            natural: coded
+                .iter()
+                .zip(ranges)
+                .map(|(c, r)| r.to_natural(*c))
+                .collect(),
+            coded,
+        }
+    }
+}
+
 /// How jobs of a study run.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ExecutorConfig {
@@ -474,14 +488,7 @@ impl Study {
             .map(|d| d.points)
             .unwrap_or_default()
             .into_iter()
-            .map(|coded| DesignPoint {
-                natural: coded
-                    .iter()
-                    .zip(ranges)
-                    .map(|(c, r)| r.to_natural(*c))
-                    .collect(),
-                coded,
-            })
+            .map(|coded| DesignPoint::in_box(coded, ranges))
             .collect()
     }
 
@@ -916,17 +923,11 @@ impl Checker<'_> {
         let design_kind = self.design_kind("design", &file.design, file.seed)?;
         let design = Design::build(&design_kind, factors.len())
             .map_err(|e| self.error("design", e.to_string()))?;
+        let limits: Vec<FactorRange> = factors.iter().map(|f| f.range).collect();
         let points: Vec<DesignPoint> = design
             .points
             .into_iter()
-            .map(|coded| DesignPoint {
-                natural: coded
-                    .iter()
-                    .zip(&factors)
-                    .map(|(c, f)| f.range.to_natural(*c))
-                    .collect(),
-                coded,
-            })
+            .map(|coded| DesignPoint::in_box(coded, &limits))
             .collect();
         let stages = self.stages(&file, simulation.as_ref())?;
         let known_responses = known_responses(simulation.as_ref(), &stages);

@@ -423,6 +423,54 @@ pub static PARAMETERS: &[ParameterSpec] = &[
         "degree of the B-spline cone profile",
     ),
     spec(
+        "dump_every",
+        0.0,
+        "steps",
+        0.0,
+        1e9,
+        "steps between snapshots of every particle (post/dump<step>.liggghts, LIGGGHTS dump custom text); 0 = none",
+    ),
+    spec(
+        "pour_rate",
+        0.0,
+        "kg/s",
+        0.0,
+        1e3,
+        "filling: 0 = particles placed at random in the hopper; > 0 = poured through a central inlet at this mass rate, then settled",
+    ),
+    spec(
+        "pour_diameter",
+        0.030,
+        "m",
+        1e-3,
+        10.0,
+        "diameter of the pouring inlet (a disk on the axis at the top of the hopper)",
+    ),
+    spec(
+        "pour_speed",
+        1.0,
+        "m/s",
+        0.01,
+        100.0,
+        "downward speed of poured particles as they leave the inlet",
+    ),
+    spec(
+        "air_density",
+        0.0,
+        "kg/m^3",
+        0.0,
+        100.0,
+        "density of still air dragging the particles (Schiller-Naumann); 0 = vacuum, 1.2 = air at 20 C",
+    ),
+    spec(
+        "air_viscosity",
+        1.8e-5,
+        "Pa s",
+        1e-7,
+        1.0,
+        "dynamic viscosity of the air",
+    ),
+    spec(
         "mesh_segments",
         48.0,
         "-",
@@ -502,6 +550,22 @@ pub fn context(case: &Case) -> Context {
     }
     let steps = |seconds: f64| (seconds / case.get("timestep")).round() as u64;
     context.insert("fill_steps", &steps(case.get("fill_time")));
+    let pour = Pour::of(case, fill_top);
+    context.insert("pour", &pour.is_some());
+    if let Some(pour) = pour {
+        for (name, value) in [
+            ("pour_mass", pour.mass_kg),
+            ("pour_end", pour.end_s),
+            ("pour_interval", pour.interval_s),
+            ("pour_radius", pour.radius_m),
+            ("pour_bottom", pour.bottom_m),
+            ("pour_top", pour.top_m),
+        ] {
+            context.insert(name, &value);
+        }
+        context.insert("pour_every", &steps(pour.interval_s).max(1));
+    }
+    context.insert("air", &(case.get("air_density") > 0.0));
     let chunk = 1000u64;
     context.insert("chunk_steps", &chunk);
     context.insert(
@@ -509,6 +573,7 @@ pub fn context(case: &Case) -> Context {
         &steps(case.get("discharge_time")).div_ceil(chunk),
     );
     context.insert("n_particles_int", &(case.get("n_particles").round() as u64));
+    context.insert("dump_every_int", &(case.get("dump_every").round() as u64));
     context.insert(
         "sensor_every_int",
         &(case.get("sensor_every").round() as u64),
@@ -528,6 +593,70 @@ pub fn context(case: &Case) -> Context {
         context.insert(*name, &prime_seed(case.seed, index as u64));
     }
     context
+}
+
+/// Pouring (`pour_rate` > 0): the mixture falls through a disk-shaped inlet on the
+/// axis at the top of the hopper, at `pour_rate` kg/s, until the mass of
+/// `n_particles` particles of the mixture is in; the rest of `fill_time` lets it
+/// settle. Like filling from a particle factory, this builds a heap under the inlet.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Pour {
+    /// Mass poured, kg: `n_particles` particles of the mixture's mean particle mass.
+    pub mass_kg: f64,
+    /// When the inlet stops, s (pouring starts at 0).
+    pub end_s: f64,
+    /// Time between insertion batches, s: the time a particle leaving the inlet at
+    /// `pour_speed` takes to cross the inlet's height, capped at 10 ms.
+    pub interval_s: f64,
+    /// Radius of the region particles appear in, m (`pour_diameter` / 2).
+    pub radius_m: f64,
+    /// Bottom of that region, m.
+    pub bottom_m: f64,
+    /// Top of that region, m.
+    pub top_m: f64,
+}
+
+/// The solid fraction of the stream leaving the pouring inlet that
+/// [`Pour::capacity_kg_s`] allows: random placement without overlaps fills a region to
+/// about 0.3 at best, so half of that leaves room for every batch.
+pub const POUR_SOLID_FRACTION: f64 = 0.15;
+
+impl Pour {
+    /// The largest mass rate the inlet passes, kg/s: particles leave its disk at
+    /// `pour_speed` with a solid fraction of [`POUR_SOLID_FRACTION`]. A faster pour
+    /// could not place every batch, and the bed would hold fewer particles than asked.
+    pub fn capacity_kg_s(&self, case: &Case) -> f64 {
+        POUR_SOLID_FRACTION
+            * case.get("density")
+            * std::f64::consts::PI
+            * self.radius_m.powi(2)
+            * case.get("pour_speed")
+    }
+
+    /// The pour of `case` whose inlet ends at `top_m`, or `None` when the case fills
+    /// at random (`pour_rate` = 0).
+    pub fn of(case: &Case, top_m: f64) -> Option<Pour> {
+        let rate = case.get("pour_rate");
+        if rate <= 0.0 {
+            return None;
+        }
+        let density = case.get("density");
+        let mass_of = |diameter: f64| density * std::f64::consts::PI * diameter.powi(3) / 6.0;
+        let fine = case.get("fine_mass_fraction");
+        let particles_per_kg = (1.0 - fine) / mass_of(case.get("coarse_diameter"))
+            + fine / mass_of(case.get("fine_diameter"));
+        let mass_kg = case.get("n_particles") / particles_per_kg;
+        let height = 3.0 * case.get("coarse_diameter");
+        let interval_s = (height / case.get("pour_speed")).min(0.01);
+        Some(Pour {
+            mass_kg,
+            end_s: mass_kg / rate,
+            interval_s,
+            radius_m: 0.5 * case.get("pour_diameter"),
+            bottom_m: top_m - height,
+            top_m,
+        })
+    }
 }
 
 /// The lowest height, from `z_m` up, where the hopper is at least as wide as the
@@ -554,6 +683,34 @@ pub fn check(case: &Case) -> Result<(), RenderError> {
         return Err(RenderError::InvalidCase(format!(
             "fine_diameter ({fine} m) must not exceed coarse_diameter ({coarse} m)"
         )));
+    }
+    if let Some(pour) = Pour::of(case, geometry(case).total_height_m()) {
+        let fill_time = case.get("fill_time");
+        if pour.end_s >= fill_time {
+            return Err(RenderError::InvalidCase(format!(
+                "pouring {:.4} kg at pour_rate {} kg/s takes {:.3} s, longer than fill_time ({fill_time} s); raise pour_rate or fill_time (and leave time to settle)",
+                pour.mass_kg,
+                case.get("pour_rate"),
+                pour.end_s
+            )));
+        }
+        let capacity = pour.capacity_kg_s(case);
+        if case.get("pour_rate") > capacity {
+            return Err(RenderError::InvalidCase(format!(
+                "pour_rate ({} kg/s) exceeds what the inlet passes, {capacity:.4} kg/s (a solid fraction of {POUR_SOLID_FRACTION} through a {} m disk at pour_speed {} m/s); widen pour_diameter, raise pour_speed or lower pour_rate",
+                case.get("pour_rate"),
+                case.get("pour_diameter"),
+                case.get("pour_speed")
+            )));
+        }
+        let room = geometry(case).top_radius_m() - case.get("coarse_diameter");
+        if pour.radius_m > room {
+            return Err(RenderError::InvalidCase(format!(
+                "pour_diameter ({} m) must leave a coarse particle's room inside the hopper's top diameter ({:.4} m)",
+                case.get("pour_diameter"),
+                2.0 * geometry(case).top_radius_m()
+            )));
+        }
     }
     let outlet = case.get("outlet_diameter");
     if outlet <= coarse {
@@ -642,6 +799,47 @@ mod tests {
     fn the_response_table_names_every_response_the_hopper_computes() {
         let table: Vec<&str> = RESPONSES.iter().map(|r| r.name.as_ref()).collect();
         assert_eq!(table, orch_granular::responses::response_names());
+    }
+
+    #[test]
+    fn a_pour_carries_the_mass_of_n_particles_of_the_mixture() {
+        let case = case_with(&[("pour_rate", 0.1), ("n_particles", 3000.0)]);
+        let pour = Pour::of(&case, 0.1).unwrap();
+        // Half the mass in 4 mm spheres, half in 2 mm ones of 2500 kg/m³.
+        let mass = |d: f64| 2500.0 * std::f64::consts::PI * d.powi(3) / 6.0;
+        let count = 0.5 * pour.mass_kg / mass(0.004) + 0.5 * pour.mass_kg / mass(0.002);
+        assert!((count - 3000.0).abs() < 1e-9, "{count}");
+        assert!((pour.end_s - pour.mass_kg / 0.1).abs() < 1e-15);
+        assert!((pour.top_m - 0.1).abs() < 1e-15);
+        assert!((pour.top_m - pour.bottom_m - 0.012).abs() < 1e-15);
+        // 12 mm at 1 m/s would be 12 ms; batches come at most 10 ms apart.
+        assert_eq!(pour.interval_s, 0.01);
+        assert_eq!(Pour::of(&case_with(&[]), 0.1), None);
+    }
+
+    #[test]
+    fn a_pour_longer_than_the_fill_or_faster_than_the_inlet_passes_is_refused() {
+        let slow = case_with(&[("pour_rate", 0.1), ("fill_time", 0.3)]);
+        assert_eq!(
+            check(&slow).unwrap_err().to_string(),
+            "invalid case: pouring 0.0559 kg at pour_rate 0.1 kg/s takes 0.559 s, longer than fill_time (0.3 s); raise pour_rate or fill_time (and leave time to settle)"
+        );
+        let narrow = case_with(&[("pour_rate", 0.2), ("pour_diameter", 0.01)]);
+        assert_eq!(
+            check(&narrow).unwrap_err().to_string(),
+            "invalid case: pour_rate (0.2 kg/s) exceeds what the inlet passes, 0.0295 kg/s (a solid fraction of 0.15 through a 0.01 m disk at pour_speed 1 m/s); widen pour_diameter, raise pour_speed or lower pour_rate"
+        );
+        let wide = case_with(&[
+            ("pour_rate", 0.3),
+            ("pour_diameter", 0.079),
+            ("pour_speed", 5.0),
+        ]);
+        let error = check(&wide).unwrap_err().to_string();
+        assert!(
+            error.contains("pour_diameter (0.079 m) must leave a coarse particle's room"),
+            "{error}"
+        );
+        assert!(check(&case_with(&[("pour_rate", 0.2), ("fill_time", 0.5)])).is_ok());
     }
 
     #[test]

@@ -9,6 +9,7 @@
 //! - [`chute`]: the transfer chute (a B-spline plate, side walls, receiving plane).
 //! - [`stream`]: responses of the stream a chute throws onto its receiving plane.
 //! - [`profile`]: the cone's wall as a clamped B-spline moved by the shape offsets.
+//! - [`bed`]: radial size segregation of a settled bed (poured or placed at random).
 //! - [`air`]: the drag of a falling particle stream on the air, for the CFD stage.
 //! - [`crossing`]: turns particle sightings near a sensor plane into one crossing per
 //!   particle, with interpolated time and position.
@@ -19,6 +20,7 @@
 //!   layers, densities).
 
 pub mod air;
+pub mod bed;
 pub mod chute;
 pub mod crossing;
 pub mod geometry;

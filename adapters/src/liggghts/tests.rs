@@ -32,6 +32,19 @@ fn vibrated_deck_with_valve_snapshot() {
 }
 
 #[test]
+fn poured_deck_in_air_with_dumps_snapshot() {
+    let case = case_with(&[
+        ("pour_rate", 0.08),
+        ("pour_diameter", 0.02),
+        ("fill_time", 1.0),
+        ("dump_every", 50000.0),
+        ("n_particles", 1500.0),
+        ("air_density", 1.2),
+    ]);
+    insta::assert_snapshot!("poured_deck_in_air_with_dumps", check(&case));
+}
+
+#[test]
 fn impossible_geometry_is_refused_before_rendering() {
     let case = case_with(&[("outlet_diameter", 0.003)]);
     let error = on(&SOLVER).equipment.check(&case).unwrap_err().to_string();

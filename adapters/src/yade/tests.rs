@@ -31,6 +31,33 @@ fn vibrated_valve_script_snapshot() {
 }
 
 #[test]
+fn poured_script_with_dumps_snapshot() {
+    insta::assert_snapshot!(
+        "poured_script_with_dumps",
+        render(&case_with(&[
+            ("pour_rate", 0.08),
+            ("pour_diameter", 0.02),
+            ("fill_time", 1.0),
+            ("dump_every", 50000.0),
+            ("n_particles", 1500.0),
+        ]))
+    );
+}
+
+#[test]
+fn yade_refuses_air_drag_and_says_which_solvers_have_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let error = on(&SOLVER)
+        .render(&case_with(&[("air_density", 1.2)]), dir.path())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.contains("YADE has no air drag in orch's hopper template: set air_density to 0, or use solver: native or liggghts"),
+        "{error}"
+    );
+}
+
+#[test]
 fn the_script_is_the_liggghts_deck_s_case() {
     let case = case_with(&[("amplitude", 0.0005)]);
     let script = render(&case);

@@ -71,6 +71,13 @@ pub trait Simulation: Send + Sync + std::fmt::Debug {
 
     /// Reads a finished run's responses and series.
     fn results(&self, case: &Case, run_dir: &Path) -> Result<RunResults, ParseError>;
+
+    /// The responses of a run that is still going, from what it has written so far;
+    /// `None` when the simulation cannot tell before it ends (a user's own deck).
+    fn results_so_far(&self, case: &Case, run_dir: &Path) -> Option<RunResults> {
+        let _ = (case, run_dir);
+        None
+    }
 }
 
 /// A template's name (for messages) and text.
@@ -216,6 +223,24 @@ impl Simulation for EquipmentOnSolver {
         }
         Ok(results)
     }
+
+    fn results_so_far(&self, case: &Case, run_dir: &Path) -> Option<RunResults> {
+        let sensor = self.equipment.sensor(case);
+        let observations = (self.solver.parse_running)(case, &sensor, run_dir).ok()?;
+        Some(self.equipment.results(case, &observations))
+    }
+}
+
+/// The text of `file` in `run_dir` up to the end of its last complete line, for
+/// reading the output of a program that is still writing it.
+pub(crate) fn complete_lines(
+    run_dir: &Path,
+    file: &str,
+) -> Result<(String, std::path::PathBuf), ParseError> {
+    let path = crate::in_run_dir(run_dir, file);
+    let mut text = std::fs::read_to_string(&path).map_err(ParseError::read(&path))?;
+    text.truncate(text.rfind('\n').map_or(0, |end| end + 1));
+    Ok((text, path))
 }
 
 /// A Tera that can read neither orch's environment (`get_env` is refused) nor any

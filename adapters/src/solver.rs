@@ -44,6 +44,10 @@ pub struct DemSolver {
     /// time and work, series.
     pub parse:
         fn(case: &Case, sensor: &SensorPlane, run_dir: &Path) -> Result<Observations, ParseError>,
+    /// Reads the crossings a *running* program has written so far (its last, possibly
+    /// half-written record left out); the other observations stay empty.
+    pub parse_running:
+        fn(case: &Case, sensor: &SensorPlane, run_dir: &Path) -> Result<Observations, ParseError>,
 }
 
 impl DemSolver {

@@ -36,6 +36,7 @@ use std::time::{Duration, Instant};
 use orch_adapters::{CommandSpec, RunResults, Upstream};
 use tokio::signal::unix::{signal, SignalKind};
 
+use crate::convergence::{self, ConvergenceWatch};
 use crate::decide::{self, is_launched, Action, Budgets, CancelCause, Failure};
 use crate::executor::{
     Executor, LaunchSpec, LocalExecutor, Recovered, SlurmExecutor, Watched, ATTEMPTS_LOG,
@@ -44,7 +45,7 @@ use crate::executor::{
 use crate::output::errln;
 use crate::progress::{Progress, RoundProgress};
 use crate::store::{now_s, JobResults, JobRow, JobState, PointRow, Store, StoreError, StudyState};
-use crate::study::{ExecutorKind, StageConfig, Study};
+use crate::study::{ExecutorKind, StageConfig, Study, STOP_FILE};
 
 /// How often the driver looks at its jobs.
 pub const TICK: Duration = Duration::from_millis(100);
@@ -128,6 +129,7 @@ async fn drive_with<E: Executor>(
         last_poll: None,
         last_poll_error: None,
         progress: Progress::on_stderr(),
+        convergence: ConvergenceWatch::default(),
     };
     let mut interrupt = signal(SignalKind::interrupt()).map_err(DriverError::Signals)?;
     let mut terminate = signal(SignalKind::terminate()).map_err(DriverError::Signals)?;
@@ -153,6 +155,7 @@ async fn drive_with<E: Executor>(
             driver.poll(&launched).await?;
         }
         let jobs = store.jobs(study_id).await?;
+        driver.stop_converged(&jobs).await;
         let terminating: HashSet<i64> = driver.terminating.keys().copied().collect();
         let actions = decide::settle_and_launch(&jobs, &driver.budgets, &terminating);
         driver
@@ -197,6 +200,8 @@ struct Driver<'a, E> {
     last_poll_error: Option<Instant>,
     /// The bar of the round on a terminal; job lines go above it.
     progress: Progress,
+    /// Running jobs' checks against the study's `stop_when:`.
+    convergence: ConvergenceWatch,
 }
 
 impl<E: Executor> Driver<'_, E> {
@@ -367,6 +372,53 @@ impl<E: Executor> Driver<'_, E> {
         self.apply(jobs, actions).await
     }
 
+    /// `stop_when:`: reads each running design job's output when its check is due, and
+    /// asks the solver to stop (writes the stop file) once the response's interval has
+    /// been narrow enough at [`convergence::NARROW_CHECKS`] checks in a row.
+    async fn stop_converged(&mut self, jobs: &[JobRow]) {
+        let Some(stop) = &self.study.stop_when else {
+            return;
+        };
+        let now = Instant::now();
+        for job in jobs {
+            let running = job.state() == JobState::Running && job.stage_kind().is_none();
+            if !running {
+                self.convergence.forget(job.id);
+                continue;
+            }
+            let run_dir = PathBuf::from(&job.run_dir);
+            if !self.convergence.due(job.id, stop, now) || run_dir.join(STOP_FILE).exists() {
+                continue;
+            }
+            let (case, simulation, dir) = (
+                self.case(job),
+                self.study.simulation.clone(),
+                run_dir.clone(),
+            );
+            let so_far =
+                tokio::task::spawn_blocking(move || simulation.results_so_far(&case, &dir))
+                    .await
+                    .ok()
+                    .flatten();
+            let reached = so_far
+                .as_ref()
+                .and_then(|results| convergence::relative_ci95(results, stop))
+                .filter(|&(_, relative)| relative < stop.relative_ci95);
+            if self.convergence.record(job.id, reached.is_some(), now) {
+                let (value, relative) = reached.expect("recorded as narrow");
+                let reason = convergence::stop_reason(stop, value, relative);
+                match std::fs::write(run_dir.join(STOP_FILE), format!("{reason}\n")) {
+                    Ok(()) => self.report(job, &format!("{reason}; asked the solver to stop")),
+                    Err(e) => errln!(
+                        "orch: cannot write {}: {e}; {} runs on to its end time",
+                        run_dir.join(STOP_FILE).display(),
+                        job.name
+                    ),
+                }
+            }
+        }
+    }
+
     /// Applies the decisions of [`crate::decide`] about `jobs`, in order. Consecutive
     /// terminations go to the executor in one call (one `scancel` for many).
     async fn apply(&mut self, jobs: &[&JobRow], actions: Vec<Action>) -> Result<(), DriverError> {
@@ -520,6 +572,12 @@ impl<E: Executor> Driver<'_, E> {
                     }
                     self.report(job, &reason);
                     results.note = Some(reason);
+                }
+                if let Some(stopped) = convergence::stopped_early(Path::new(&job.run_dir)) {
+                    results.note = Some(match results.note.take() {
+                        Some(note) => format!("{note}; {stopped}"),
+                        None => stopped,
+                    });
                 }
                 self.report_success(job, &results);
                 self.store.mark_succeeded(job.id, 0, &results).await?;

@@ -46,6 +46,7 @@ pub static SOLVER: DemSolver = DemSolver {
     ],
     command,
     parse,
+    parse_running,
 };
 
 /// Name of the LIGGGHTS log in the run directory.
@@ -70,19 +71,8 @@ fn parse(case: &Case, sensor: &SensorPlane, run_dir: &Path) -> Result<Observatio
     let log = read_log(reader, &log_path)?;
 
     let dt = case.get("timestep");
-    let mut detector = CrossingDetector::new(sensor.height_m);
     let (reader, dump_path) = open(SENSOR_DUMP)?;
-    read_dump(reader, &dump_path, |snapshot| {
-        let time = snapshot.timestep as f64 * dt;
-        let sightings = snapshot.sightings().map_err(|missing| {
-            format!("the sensor dump lacks the columns {}", missing.join(", "))
-        })?;
-        for sighting in sightings {
-            detector.observe(time, sighting);
-        }
-        Ok(())
-    })?;
-    let crossings = detector.finish();
+    let crossings = crossings_in_dump(reader, &dump_path, dt, sensor)?;
     if let Some(sink_mass) = log.sink_mass_kg {
         crossings_cover_sink(&crossings, sink_mass, &dump_path)?;
     }
@@ -101,6 +91,48 @@ fn parse(case: &Case, sensor: &SensorPlane, run_dir: &Path) -> Result<Observatio
             points: kinetic_energy,
         }],
     })
+}
+
+/// The crossings in the sensor dump of a run still going: every snapshot but the last,
+/// which LIGGGHTS may be writing.
+fn parse_running(
+    case: &Case,
+    sensor: &SensorPlane,
+    run_dir: &Path,
+) -> Result<Observations, ParseError> {
+    let (mut text, dump_path) = crate::simulation::complete_lines(run_dir, SENSOR_DUMP)?;
+    text.truncate(text.rfind("ITEM: TIMESTEP").unwrap_or(0));
+    let crossings = crossings_in_dump(
+        std::io::Cursor::new(text),
+        &dump_path,
+        case.get("timestep"),
+        sensor,
+    )?;
+    Ok(Observations {
+        crossings,
+        ..Observations::default()
+    })
+}
+
+/// Each particle's crossing of `sensor` from the sightings in a sensor dump whose
+/// time step number times `dt_s` gives the time.
+fn crossings_in_dump(
+    reader: impl std::io::BufRead,
+    path: &Path,
+    dt_s: f64,
+    sensor: &SensorPlane,
+) -> Result<Vec<orch_granular::Crossing>, ParseError> {
+    let mut detector = CrossingDetector::new(sensor.height_m);
+    read_dump(reader, path, |snapshot| {
+        let sightings = snapshot.sightings().map_err(|missing| {
+            format!("the sensor dump lacks the columns {}", missing.join(", "))
+        })?;
+        for sighting in sightings {
+            detector.observe(snapshot.timestep as f64 * dt_s, sighting);
+        }
+        Ok(())
+    })?;
+    Ok(detector.finish())
 }
 
 #[cfg(test)]

@@ -43,6 +43,7 @@ pub static SOLVER: DemSolver = DemSolver {
     ],
     command,
     parse,
+    parse_running,
 };
 
 /// The kernel's log in the run directory.
@@ -94,6 +95,20 @@ fn parse(_case: &Case, _sensor: &SensorPlane, run_dir: &Path) -> Result<Observat
             name: "kinetic_energy".to_string(),
             points: log.kinetic_energy,
         }],
+    })
+}
+
+/// The crossings the kernel has flushed so far (it flushes them every `thermo_every`
+/// steps); the YADE script writes the same file.
+pub(crate) fn parse_running(
+    _case: &Case,
+    _sensor: &SensorPlane,
+    run_dir: &Path,
+) -> Result<Observations, ParseError> {
+    let (text, path) = crate::simulation::complete_lines(run_dir, CROSSINGS_FILE)?;
+    Ok(Observations {
+        crossings: read_crossings(std::io::Cursor::new(text), &path)?,
+        ..Observations::default()
     })
 }
 

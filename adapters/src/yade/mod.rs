@@ -39,6 +39,7 @@ pub static SOLVER: DemSolver = DemSolver {
     }],
     command,
     parse,
+    parse_running: crate::native::parse_running,
 };
 
 /// The log the script writes in the run directory.

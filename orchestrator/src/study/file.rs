@@ -78,6 +78,27 @@ pub struct StudyFile {
     /// A user's own deck (`equipment: custom`): templates, files, command, responses.
     #[serde(default)]
     pub case: Option<CaseFile>,
+    /// Ends each run once a response is known well enough (`stop_when: {response:
+    /// discharge_rate, ci95_below: 0.03}`).
+    #[serde(default)]
+    pub stop_when: Option<StopWhenFile>,
+}
+
+/// `stop_when:` of a study: a run is asked to stop cleanly once the 95 % confidence
+/// interval of `response` (its `<response>_ci95` half-width) is narrower than
+/// `ci95_below` times the response, at two checks in a row.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StopWhenFile {
+    /// The response whose interval decides; the equipment must report
+    /// `<response>_ci95`.
+    pub response: String,
+    /// Relative half-width of the 95 % interval below which the run stops (0.03 =
+    /// ±3 %).
+    pub ci95_below: f64,
+    /// Time between checks of a running job's output (default 5 s).
+    #[serde(default)]
+    pub check_every: Option<TimeLimit>,
 }
 
 /// `missing_response:` of a study.

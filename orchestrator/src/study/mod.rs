@@ -334,6 +334,8 @@ pub struct Study {
     pub fail_on_missing_response: bool,
     /// Stages chained after every design job, in the order of [`orch_adapters::STAGES`].
     pub stages: Vec<StageConfig>,
+    /// When a design job is asked to stop before its end time (`stop_when:`).
+    pub stop_when: Option<StopWhen>,
     /// The file's text, kept in the store.
     pub file_text: String,
     /// Files the study names relative to itself (a user's deck's templates and side
@@ -343,6 +345,25 @@ pub struct Study {
     /// submitted again under its name must be the same in all of them.
     pub file_sha256: String,
 }
+
+/// `stop_when:`: a running design job is asked to stop cleanly (its run directory
+/// gets a [`STOP_FILE`]) once the 95 % interval of `response` is narrower than
+/// `relative_ci95` times the response at two checks in a row.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StopWhen {
+    /// The response whose interval decides.
+    pub response: String,
+    /// Its interval half-width: the response the equipment reports beside it.
+    pub ci95_response: String,
+    /// Relative half-width of the 95 % interval to reach, e.g. 0.03.
+    pub relative_ci95: f64,
+    /// Time between checks of a running job's output.
+    pub check_every: Duration,
+}
+
+/// The file whose presence in a run directory asks the solver to end the run as if
+/// its end time had come; it holds why, for status.
+pub const STOP_FILE: &str = "STOP";
 
 /// What the store kept of a study at submission, used instead of the files on disk
 /// when it is validated again (status, resume).
@@ -764,6 +785,55 @@ impl Checker<'_> {
                 field,
                 message,
             }
+        })
+    }
+
+    /// `stop_when:` checked against what the simulation reports.
+    fn stop_when(
+        &self,
+        stop: file::StopWhenFile,
+        simulation: &dyn Simulation,
+    ) -> Result<StopWhen, StudyError> {
+        let reported = |name: &str| simulation.responses().iter().any(|r| r.name == name);
+        let ci95_response = format!("{}_ci95", stop.response);
+        if !reported(&stop.response) || !reported(&ci95_response) {
+            let with_interval: Vec<&str> = simulation
+                .responses()
+                .iter()
+                .map(|r| r.name.as_ref())
+                .filter(|name| reported(&format!("{name}_ci95")))
+                .collect();
+            return Err(self.error(
+                "stop_when.response",
+                format!(
+                    "expected a response reported with its 95 % interval (`<name>_ci95`), got `{}`; such responses here: {}",
+                    stop.response,
+                    if with_interval.is_empty() {
+                        "none".to_string()
+                    } else {
+                        with_interval.join(", ")
+                    }
+                ),
+            ));
+        }
+        if !(stop.ci95_below > 0.0 && stop.ci95_below < 1.0) {
+            return Err(self.error(
+                "stop_when.ci95_below",
+                format!(
+                    "expected the relative half-width of the interval, between 0 and 1 (0.03 = ±3 %), got {}",
+                    stop.ci95_below
+                ),
+            ));
+        }
+        let check_every = stop.check_every.map_or(Duration::from_secs(5), |t| t.0);
+        if check_every.is_zero() {
+            return Err(self.error("stop_when.check_every", "expected a positive duration"));
+        }
+        Ok(StopWhen {
+            response: stop.response,
+            ci95_response,
+            relative_ci95: stop.ci95_below,
+            check_every,
         })
     }
 
@@ -1202,6 +1272,10 @@ impl Checker<'_> {
                 ));
             }
         }
+        let stop_when = match file.stop_when {
+            None => None,
+            Some(stop) => Some(self.stop_when(stop, simulation.as_ref())?),
+        };
         self.check_job_count(
             points.len(),
             metamodel.test_points,
@@ -1227,6 +1301,7 @@ impl Checker<'_> {
             metamodel,
             uncertainty,
             stages,
+            stop_when,
             fail_on_missing_response: file.missing_response
                 == Some(file::MissingResponseFile::Fail),
             file_text: text.to_string(),

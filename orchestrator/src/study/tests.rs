@@ -553,3 +553,33 @@ fn robust_objectives_and_probabilistic_bounds_need_a_spread() {
     assert!(error(&format!("{}{tolerance}", with(both)))
         .ends_with("objective.constraints[0].probability: a probabilistic bound takes `min:` or `max:`, not both; write two constraints"));
 }
+
+#[test]
+fn stop_when_names_a_response_with_an_interval_and_a_relative_target() {
+    let study = load(&format!(
+        "{VALID}stop_when: {{response: discharge_rate, ci95_below: 0.03, check_every: 2s}}\n"
+    ))
+    .unwrap();
+    assert_eq!(
+        study.stop_when,
+        Some(StopWhen {
+            response: "discharge_rate".to_string(),
+            ci95_response: "discharge_rate_ci95".to_string(),
+            relative_ci95: 0.03,
+            check_every: Duration::from_secs(2),
+        })
+    );
+    assert_eq!(load(VALID).unwrap().stop_when, None);
+    assert_eq!(
+        error(&format!(
+            "{VALID}stop_when: {{response: exit_speed, ci95_below: 0.03}}\n"
+        )),
+        "jobs/study.yaml:18:23: stop_when.response: expected a response reported with its 95 % interval (`<name>_ci95`), got `exit_speed`; such responses here: discharge_rate"
+    );
+    assert_eq!(
+        error(&format!(
+            "{VALID}stop_when: {{response: discharge_rate, ci95_below: 3}}\n"
+        )),
+        "jobs/study.yaml:18:51: stop_when.ci95_below: expected the relative half-width of the interval, between 0 and 1 (0.03 = ±3 %), got 3"
+    );
+}

@@ -471,6 +471,14 @@ pub static PARAMETERS: &[ParameterSpec] = &[
         "dynamic viscosity of the air",
     ),
     spec(
+        "air_field",
+        0.0,
+        "-",
+        0.0,
+        1.0,
+        "1 = the air moves as air-field.csv in the run directory says (written by the DEM-CFD coupling; native kernel only), 0 = still air",
+    ),
+    spec(
         "mesh_segments",
         48.0,
         "-",
@@ -566,6 +574,7 @@ pub fn context(case: &Case) -> Context {
         context.insert("pour_every", &steps(pour.interval_s).max(1));
     }
     context.insert("air", &(case.get("air_density") > 0.0));
+    context.insert("air_field", &(case.get("air_field") > 0.5));
     let chunk = 1000u64;
     context.insert("chunk_steps", &chunk);
     context.insert(
@@ -711,6 +720,12 @@ pub fn check(case: &Case) -> Result<(), RenderError> {
                 2.0 * geometry(case).top_radius_m()
             )));
         }
+    }
+    if case.get("air_field") > 0.5 && case.get("air_density") <= 0.0 {
+        return Err(RenderError::InvalidCase(
+            "air_field = 1 moves air that is not there: set air_density (1.2 for air at 20 C)"
+                .to_string(),
+        ));
     }
     let outlet = case.get("outlet_diameter");
     if outlet <= coarse {

@@ -1029,7 +1029,10 @@ async fn logs(project_dir: Option<&Path>, reference: &str, tail: usize) -> anyho
             )))
         }
     };
-    let log_file = match job.stage_kind() {
+    let log_file = match job
+        .stage_kind()
+        .filter(|&kind| kind != crate::coupling::AIR_STAGE)
+    {
         Some(kind) => orch_adapters::stage_for(kind)
             .context("the job's stage is unknown to this orch")?
             .log_file(),

@@ -37,6 +37,7 @@ use orch_adapters::{CommandSpec, RunResults, Upstream};
 use tokio::signal::unix::{signal, SignalKind};
 
 use crate::convergence::{self, ConvergenceWatch};
+use crate::coupling::{self, in_moving_air, AirProperties, AIR_FIELD_FILE, AIR_STAGE};
 use crate::decide::{self, is_launched, Action, Budgets, CancelCause, Failure};
 use crate::executor::{
     Executor, LaunchSpec, LocalExecutor, Recovered, SlurmExecutor, Watched, ATTEMPTS_LOG,
@@ -275,6 +276,9 @@ impl<E: Executor> Driver<'_, E> {
                 .map_err(|e| format!("cannot render the case: {e}"))?;
             return Ok(simulation.command());
         };
+        if kind == AIR_STAGE {
+            return self.render_in_air(job, run_dir).await;
+        }
         let stage = self.stage_of(kind)?;
         let upstream = match job.after_job_id {
             Some(id) => self.store.job(id).await.map_err(|e| e.to_string())?,
@@ -293,6 +297,84 @@ impl<E: Executor> Driver<'_, E> {
             .stage
             .render(&stage.case(), &upstream, run_dir)
             .map_err(|e| e.to_string())
+    }
+
+    /// The air of the `cfd` job a coupled DEM job follows: its stage's density and
+    /// viscosity, and that job's run directory (where its grid of velocities is).
+    async fn air_before(&self, job: &JobRow) -> Result<(AirProperties, JobRow), String> {
+        let cfd_job = match job.after_job_id {
+            Some(id) => self.store.job(id).await.map_err(|e| e.to_string())?,
+            None => return Err(format!("an {AIR_STAGE} job without the cfd job it follows")),
+        };
+        let cfd = self.stage_of(&cfd_job.stage)?;
+        Ok((AirProperties::of_cfd(&cfd.case()), cfd_job))
+    }
+
+    /// Renders a coupled DEM job: the design point's case in the air of the `cfd` job
+    /// before it, whose grid of velocities becomes [`AIR_FIELD_FILE`].
+    async fn render_in_air(&self, job: &JobRow, run_dir: &Path) -> Result<CommandSpec, String> {
+        let (air, cfd_job) = self.air_before(job).await?;
+        let simulation = &self.study.simulation;
+        simulation
+            .render(&in_moving_air(&self.case(job), &air), run_dir)
+            .map_err(|e| format!("cannot render the case: {e}"))?;
+        let field = orch_adapters::openfoam::air_field_csv(Path::new(&cfd_job.run_dir))
+            .map_err(|e| format!("cannot read the air of {}: {e}", cfd_job.name))?;
+        std::fs::write(run_dir.join(AIR_FIELD_FILE), field)
+            .map_err(|e| format!("cannot write {AIR_FIELD_FILE}: {e}"))?;
+        Ok(simulation.command())
+    }
+
+    /// After a coupled DEM job succeeded: when the study's response moved by less than
+    /// the tolerance since the DEM run before it, the chain's next job is cancelled
+    /// (and the rest with it); returns what happened, for the job's line.
+    async fn settle_coupling(
+        &mut self,
+        job: &JobRow,
+        results: &JobResults,
+    ) -> Result<Option<String>, DriverError> {
+        let Some(coupling) = &self.study.coupling else {
+            return Ok(None);
+        };
+        let Some(now) = results
+            .responses
+            .iter()
+            .find(|(name, _)| *name == coupling.response)
+            .map(|&(_, value)| value)
+        else {
+            return Ok(None);
+        };
+        let Some(cfd_id) = job.after_job_id else {
+            return Ok(None);
+        };
+        let Some(dem_id) = self.store.job(cfd_id).await?.after_job_id else {
+            return Ok(None);
+        };
+        let before = self.store.job_responses(dem_id).await?;
+        let Some(&before) = before.get(&coupling.response) else {
+            return Ok(None);
+        };
+        let Some(change) = coupling::settled(before, now, coupling.tolerance) else {
+            return Ok(Some(format!(
+                "{} {before:.5} → {now:.5} in the CFD stage's air, not settled yet",
+                coupling.response
+            )));
+        };
+        let note = format!(
+            "coupling settled at {}: {} {before:.5} → {now:.5} ({:.2} % < {:.2} %)",
+            job.name,
+            coupling.response,
+            100.0 * change,
+            100.0 * coupling.tolerance
+        );
+        let jobs = self.store.jobs(self.study_id).await?;
+        if let Some(next) = jobs
+            .iter()
+            .find(|j| j.after_job_id == Some(job.id) && j.state() == JobState::Pending)
+        {
+            self.store.mark_cancelled(next.id, &note).await?;
+        }
+        Ok(Some(note))
     }
 
     async fn launch(&mut self, job: &JobRow) -> Result<(), DriverError> {
@@ -544,9 +626,16 @@ impl<E: Executor> Driver<'_, E> {
     async fn collect(&mut self, job: &JobRow) -> Result<(), DriverError> {
         let unreadable =
             |reason| decide::retry_or_fail(job, &self.budgets, Failure::Unreadable(reason));
-        let case = self.case(job);
+        let mut case = self.case(job);
         let simulation = self.study.simulation.clone();
         let stage = match job.stage_kind() {
+            Some(AIR_STAGE) => match self.air_before(job).await {
+                Ok((air, _)) => {
+                    case = in_moving_air(&case, &air);
+                    None
+                }
+                Err(reason) => return self.record_failure(job, unreadable(reason)).await,
+            },
             Some(kind) => match self.stage_of(kind) {
                 Ok(config) => Some(config.stage),
                 Err(reason) => return self.record_failure(job, unreadable(reason)).await,
@@ -581,6 +670,11 @@ impl<E: Executor> Driver<'_, E> {
                 }
                 self.report_success(job, &results);
                 self.store.mark_succeeded(job.id, 0, &results).await?;
+                if job.stage_kind() == Some(AIR_STAGE) {
+                    if let Some(line) = self.settle_coupling(job, &results).await? {
+                        self.report(job, &line);
+                    }
+                }
             }
             Err(e) => {
                 let reason = format!("the solver exited 0 but its output cannot be read: {e}");

@@ -9,6 +9,7 @@ pub mod catalogue;
 pub mod cli;
 pub mod compare;
 pub mod convergence;
+pub mod coupling;
 pub mod decide;
 pub mod driver;
 pub mod executor;

@@ -22,7 +22,9 @@ use std::path::Path;
 use orch_granular::air::{drag_rate_per_s, mean_fall_speed, StreamFraction};
 use tera::Context;
 
-pub use post::{read_probes, read_surface_field_value, read_time_series_dirs};
+pub use post::{
+    read_probe_positions, read_probes, read_surface_field_value, read_time_series_dirs,
+};
 
 use crate::equipment::response;
 use crate::params::spec;
@@ -154,6 +156,12 @@ pub const RING_PROBES: &str = "postProcessing/ring";
 pub const ENTRAINED_FLOW: &str = "postProcessing/entrained";
 /// Probes on the ring.
 pub const RING_POINTS: usize = 8;
+/// Probes of the air velocity on a grid through the domain, written at the end.
+pub const GRID_PROBES: &str = "postProcessing/airGrid";
+/// Grid points across the domain (each horizontal direction) for [`GRID_PROBES`].
+pub const GRID_ACROSS: usize = 9;
+/// Grid points down the domain for [`GRID_PROBES`].
+pub const GRID_DOWN: usize = 11;
 /// Responses are averaged over this last fraction of the simulated time.
 pub const AVERAGE_OVER: f64 = 0.25;
 
@@ -331,9 +339,79 @@ pub fn context(case: &Case, stream: &StreamInputs) -> Context {
     context.insert("particle_speed", &speed);
     context.insert("drag_rate", &drag_rate);
     context.insert("ring_probes", &probes);
+    context.insert(
+        "grid_probes",
+        &grid_points(case.get("domain_half_width"), depth),
+    );
     // A first step that keeps the Courant number below 0.1 at the particles' speed.
     context.insert("initial_timestep", &(0.1 * cells / speed.max(0.1)));
     context
+}
+
+/// The points of the air-velocity grid: [`GRID_ACROSS`] × [`GRID_ACROSS`] ×
+/// [`GRID_DOWN`] points evenly spaced over the box `[-half_width, half_width]² ×
+/// [-depth, 0]`, each kept half a spacing inside its faces (so every point lies in a
+/// cell), x fastest, then y, then z.
+pub fn grid_points(half_width_m: f64, depth_m: f64) -> Vec<[f64; 3]> {
+    let axis = |low: f64, high: f64, n: usize| -> Vec<f64> {
+        let step = (high - low) / n as f64;
+        (0..n).map(|i| low + (i as f64 + 0.5) * step).collect()
+    };
+    let across = axis(-half_width_m, half_width_m, GRID_ACROSS);
+    let down = axis(-depth_m, 0.0, GRID_DOWN);
+    let mut points = Vec::with_capacity(across.len() * across.len() * down.len());
+    for &z in &down {
+        for &y in &across {
+            for &x in &across {
+                points.push([x, y, z]);
+            }
+        }
+    }
+    points
+}
+
+/// The air velocity a finished case wrote on its grid ([`GRID_PROBES`], the last
+/// time), as the CSV the native kernel's `[air] velocity_field` reads: a header
+/// `x,y,z,ux,uy,uz`, then one row per grid point (m, m/s). The probe positions come
+/// from the file's header, so the grid is the one the case was run with.
+pub fn air_field_csv(run_dir: &Path) -> Result<String, ParseError> {
+    let dir = run_dir.join(GRID_PROBES);
+    let rows = read_time_series_dirs(&dir, "U", |mut reader, path| {
+        let mut text = String::new();
+        std::io::Read::read_to_string(&mut reader, &mut text).map_err(ParseError::read(path))?;
+        let positions = read_probe_positions(std::io::Cursor::new(&text), path)?;
+        let rows = read_probes(std::io::Cursor::new(&text), path)?;
+        Ok(rows
+            .into_iter()
+            .map(|(t, velocities)| (t, (positions.clone(), velocities)))
+            .collect())
+    })?;
+    let Some((_, (positions, velocities))) = rows.last() else {
+        return Err(ParseError::malformed(
+            &dir.join("U"),
+            1,
+            "no time step in the air grid's probes",
+        ));
+    };
+    if velocities.len() != positions.len() {
+        return Err(ParseError::malformed(
+            &dir.join("U"),
+            1,
+            format!(
+                "{} probe positions in the header but {} velocities in the last row",
+                positions.len(),
+                velocities.len()
+            ),
+        ));
+    }
+    let mut csv = String::from("x,y,z,ux,uy,uz\n");
+    for (p, u) in positions.iter().zip(velocities) {
+        csv.push_str(&format!(
+            "{:e},{:e},{:e},{:e},{:e},{:e}\n",
+            p[0], p[1], p[2], u[0], u[1], u[2]
+        ));
+    }
+    Ok(csv)
 }
 
 /// Checks a CFD case: the stream and its probe ring fit inside the domain.

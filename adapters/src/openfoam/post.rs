@@ -90,6 +90,53 @@ pub fn read_surface_field_value<R: BufRead>(
 /// Rows of a vector probes file: time (s) and one vector per probe.
 pub type ProbeRows = Vec<(f64, Vec<[f64; 3]>)>;
 
+/// The probe positions of a `probes` file, from its `# Probe k (x y z)` header lines,
+/// in probe order.
+pub fn read_probe_positions<R: BufRead>(
+    reader: R,
+    path: &Path,
+) -> Result<Vec<[f64; 3]>, ParseError> {
+    let mut positions = Vec::new();
+    for numbered in numbered_lines(reader, path) {
+        let (line, text) = numbered?;
+        let Some(rest) = text.trim().strip_prefix("# Probe ") else {
+            continue;
+        };
+        let inside = rest
+            .split_once('(')
+            .and_then(|(_, after)| after.split_once(')'))
+            .map(|(inside, _)| inside)
+            .ok_or_else(|| {
+                ParseError::malformed(
+                    path,
+                    line,
+                    format!("expected `# Probe k (x y z)`, found `{text}`"),
+                )
+            })?;
+        let parts: Vec<&str> = inside.split_whitespace().collect();
+        if parts.len() != 3 {
+            return Err(ParseError::malformed(
+                path,
+                line,
+                format!("expected a position `(x y z)`, found `({inside})`"),
+            ));
+        }
+        let mut p = [0.0; 3];
+        for (slot, part) in p.iter_mut().zip(parts) {
+            *slot = number(path, line, part, "a probe coordinate")?;
+        }
+        positions.push(p);
+    }
+    if positions.is_empty() {
+        return Err(ParseError::malformed(
+            path,
+            1,
+            "no `# Probe k (x y z)` header lines: not a probes file",
+        ));
+    }
+    Ok(positions)
+}
+
 /// Reads a vector probes file: per row the time and one `(x y z)` per probe, as many
 /// as its `# Probe k (...)` header lines announce.
 pub fn read_probes<R: BufRead>(reader: R, path: &Path) -> Result<ProbeRows, ParseError> {

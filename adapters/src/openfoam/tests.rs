@@ -160,3 +160,43 @@ fn truncated_and_malformed_output_is_an_error_naming_the_file_and_line() {
     let error = parse(missing.path()).unwrap_err().to_string();
     assert!(error.contains("postProcessing/entrained"), "{error}");
 }
+
+#[test]
+fn the_air_grid_is_regular_and_inside_the_domain() {
+    let points = grid_points(0.04, 0.1);
+    assert_eq!(points.len(), GRID_ACROSS * GRID_ACROSS * GRID_DOWN);
+    // x fastest, then y, then z; half a spacing in from every face.
+    let dx = 0.08 / GRID_ACROSS as f64;
+    assert!((points[0][0] - (-0.04 + 0.5 * dx)).abs() < 1e-15);
+    assert!((points[1][0] - points[0][0] - dx).abs() < 1e-15);
+    assert!((points[GRID_ACROSS][1] - points[0][1] - dx).abs() < 1e-15);
+    for p in &points {
+        assert!(p[0].abs() < 0.04 && p[1].abs() < 0.04, "{p:?}");
+        assert!(p[2] < 0.0 && p[2] > -0.1, "{p:?}");
+    }
+}
+
+#[test]
+fn the_air_field_is_the_last_row_of_the_grid_probes_at_their_positions() {
+    let dir = tempfile::tempdir().unwrap();
+    let probes = dir.path().join(GRID_PROBES).join("0");
+    std::fs::create_dir_all(&probes).unwrap();
+    std::fs::write(
+        probes.join("U"),
+        "# Probe 0 (0.01 0 -0.05)\n# Probe 1 (-0.01 0.002 -0.05)\n#  Probe   Time\n\
+         0.1  (0 0 -0.1)  (0 0 -0.2)\n0.3  (0.001 0 -0.5)  (0 -0.002 -0.25)\n",
+    )
+    .unwrap();
+    assert_eq!(
+        air_field_csv(dir.path()).unwrap(),
+        "x,y,z,ux,uy,uz\n1e-2,0e0,-5e-2,1e-3,0e0,-5e-1\n-1e-2,2e-3,-5e-2,0e0,-2e-3,-2.5e-1\n"
+    );
+    std::fs::write(
+        probes.join("U"),
+        "# Probe 0 (0.01 0 -0.05)\n# Probe 1 (-0.01 0.002)\n0.1  (0 0 -0.1)  (0 0 -0.2)\n",
+    )
+    .unwrap();
+    let error = air_field_csv(dir.path()).unwrap_err().to_string();
+    assert!(error.contains("U:2"), "{error}");
+    assert!(error.contains("expected a position `(x y z)`"), "{error}");
+}

@@ -905,24 +905,42 @@ pub(crate) async fn insert_points_and_jobs(
                 PointPurpose::Design => study.stages.as_slice(),
                 PointPurpose::Test { .. } => &[],
             };
-            for stage in stages {
-                let kind = stage.stage.kind();
-                let name = format!("{name}-{kind}");
-                sqlx::query(
+            let mut chained: Vec<(String, &str)> = stages
+                .iter()
+                .map(|stage| (format!("{name}-{}", stage.stage.kind()), stage.stage.kind()))
+                .collect();
+            let coupled = study.coupling.as_ref().filter(|_| !stages.is_empty());
+            let mut chain_tail = None;
+            if let Some(coupling) = coupled {
+                chained.extend(crate::coupling::chain(&name, coupling.iterations));
+            }
+            for (index, (stage_name, kind)) in chained.iter().enumerate() {
+                // Stages follow the design job; a coupling chain follows its first
+                // `cfd` job, each job the one before it.
+                let after = if index < stages.len() {
+                    dem_job
+                } else {
+                    *chain_tail.get_or_insert(dem_job)
+                };
+                let id: i64 = sqlx::query(
                     "INSERT INTO jobs (study_id, point_id, replicate, name, seed, state, run_dir, stage, after_job_id)
-                     VALUES (?, ?, ?, ?, ?, 'pending', ?, ?, ?)",
+                     VALUES (?, ?, ?, ?, ?, 'pending', ?, ?, ?) RETURNING id",
                 )
                 .bind(study_id)
                 .bind(point_id)
                 .bind(replicate as i64)
-                .bind(&name)
+                .bind(stage_name)
                 .bind(seed as i64)
-                .bind(runs_dir.join(&name).display().to_string())
-                .bind(kind)
-                .bind(dem_job)
-                .execute(&mut *tx)
+                .bind(runs_dir.join(stage_name).display().to_string())
+                .bind(*kind)
+                .bind(after)
+                .fetch_one(&mut *tx)
                 .await
-                .map_err(query_error("record a stage"))?;
+                .map_err(query_error("record a stage"))?
+                .get(0);
+                if index >= stages.len() || *kind == orch_adapters::openfoam::KIND {
+                    chain_tail = Some(id);
+                }
             }
         }
     }

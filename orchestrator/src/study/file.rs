@@ -82,6 +82,24 @@ pub struct StudyFile {
     /// discharge_rate, ci95_below: 0.03}`).
     #[serde(default)]
     pub stop_when: Option<StopWhenFile>,
+    /// Runs the DEM again in the air the CFD stage computed, and the CFD again on
+    /// that stream, until a response settles (`coupling: {iterations: 3, response:
+    /// discharge_rate, tolerance: 0.01}`); needs the `cfd` stage.
+    #[serde(default)]
+    pub coupling: Option<CouplingFile>,
+}
+
+/// `coupling:` of a study: the staggered DEM ↔ air iteration.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CouplingFile {
+    /// DEM runs in moving air after the first, still-air one, at most.
+    pub iterations: u32,
+    /// The DEM response whose change decides (default `discharge_rate`).
+    #[serde(default)]
+    pub response: Option<String>,
+    /// Relative change of that response between two DEM runs that ends the iteration.
+    pub tolerance: f64,
 }
 
 /// `stop_when:` of a study: a run is asked to stop cleanly once the 95 % confidence

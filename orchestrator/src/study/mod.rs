@@ -336,6 +336,8 @@ pub struct Study {
     pub stages: Vec<StageConfig>,
     /// When a design job is asked to stop before its end time (`stop_when:`).
     pub stop_when: Option<StopWhen>,
+    /// The staggered DEM ↔ air iteration after each design job (`coupling:`).
+    pub coupling: Option<Coupling>,
     /// The file's text, kept in the store.
     pub file_text: String,
     /// Files the study names relative to itself (a user's deck's templates and side
@@ -359,6 +361,20 @@ pub struct StopWhen {
     pub relative_ci95: f64,
     /// Time between checks of a running job's output.
     pub check_every: Duration,
+}
+
+/// `coupling:`: after each design job and its `cfd` stage, the DEM runs again in the
+/// air that stage computed (a job of kind [`crate::coupling::AIR_STAGE`]), then the
+/// CFD again on the new stream, until `response` changes by less than `tolerance`
+/// (relative) between two DEM runs, or `iterations` DEM runs in air have been made.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Coupling {
+    /// DEM runs in moving air, at most.
+    pub iterations: u32,
+    /// The DEM response whose change decides.
+    pub response: String,
+    /// Relative change that ends the iteration.
+    pub tolerance: f64,
 }
 
 /// The file whose presence in a run directory asks the solver to end the run as if
@@ -785,6 +801,112 @@ impl Checker<'_> {
                 field,
                 message,
             }
+        })
+    }
+
+    /// `coupling:` checked: the `cfd` stage is there, the response is the DEM's, and
+    /// the simulation can run in the CFD stage's air (its template renders the first
+    /// design point with `air_field` = 1).
+    fn coupling(
+        &self,
+        coupling: &file::CouplingFile,
+        simulation: &dyn Simulation,
+        stages: &[StageConfig],
+        points: &[DesignPoint],
+        fixed: &BTreeMap<String, f64>,
+        factors: &[Factor],
+    ) -> Result<Coupling, StudyError> {
+        if !stages
+            .iter()
+            .any(|s| s.stage.kind() == orch_adapters::openfoam::KIND)
+        {
+            return Err(self.error(
+                "coupling",
+                "couples the DEM with the air of the `cfd` stage: add `cfd:` (or `stages: {cfd: …}`) to the study",
+            ));
+        }
+        if coupling.iterations == 0 || coupling.iterations > 10 {
+            return Err(self.error(
+                "coupling.iterations",
+                format!(
+                    "expected 1 to 10 DEM runs in moving air, got {}",
+                    coupling.iterations
+                ),
+            ));
+        }
+        if !(coupling.tolerance > 0.0 && coupling.tolerance < 1.0) {
+            return Err(self.error(
+                "coupling.tolerance",
+                format!(
+                    "expected a relative change between 0 and 1 (0.01 = 1 %), got {}",
+                    coupling.tolerance
+                ),
+            ));
+        }
+        let response = coupling
+            .response
+            .clone()
+            .unwrap_or_else(|| "discharge_rate".to_string());
+        if !simulation.responses().iter().any(|r| r.name == response) {
+            let names: Vec<&str> = simulation
+                .responses()
+                .iter()
+                .map(|r| r.name.as_ref())
+                .collect();
+            return Err(self.error(
+                "coupling.response",
+                format!(
+                    "expected a response of the DEM run, got `{response}`; expected one of: {}",
+                    names.join(", ")
+                ),
+            ));
+        }
+        let specs = simulation.parameters();
+        if !crate::coupling::AIR_PARAMETERS
+            .iter()
+            .all(|name| specs.iter().any(|s| s.name == *name))
+        {
+            return Err(self.error(
+                "coupling",
+                format!(
+                    "the {} equipment cannot run in moving air (it has no {} parameters)",
+                    simulation.equipment_name(),
+                    crate::coupling::AIR_PARAMETERS.join(", ")
+                ),
+            ));
+        }
+        if let Some(point) = points.first() {
+            let mut parameters = ResolvedParameters::defaults(specs);
+            for (name, value) in fixed {
+                parameters.set(name, *value);
+            }
+            for (factor, value) in factors.iter().zip(&point.natural) {
+                parameters.set(&factor.name, *value);
+            }
+            let still = Case {
+                parameters,
+                text: Default::default(),
+                seed: 1,
+            };
+            let moving =
+                crate::coupling::in_moving_air(&still, &crate::coupling::AirProperties::default());
+            if let Err(e) = simulation
+                .check(&moving)
+                .and_then(|()| simulation.render_texts(&moving).map(drop))
+            {
+                return Err(self.error(
+                    "coupling",
+                    format!(
+                        "the {} solver cannot run the DEM in the CFD stage's air: {e}",
+                        simulation.solver_name()
+                    ),
+                ));
+            }
+        }
+        Ok(Coupling {
+            iterations: coupling.iterations,
+            response,
+            tolerance: coupling.tolerance,
         })
     }
 
@@ -1272,15 +1394,27 @@ impl Checker<'_> {
                 ));
             }
         }
+        let coupling = match &file.coupling {
+            None => None,
+            Some(coupling) => Some(self.coupling(
+                coupling,
+                simulation.as_ref(),
+                &stages,
+                &points,
+                &fixed,
+                &factors,
+            )?),
+        };
         let stop_when = match file.stop_when {
             None => None,
             Some(stop) => Some(self.stop_when(stop, simulation.as_ref())?),
         };
+        let coupled_jobs = coupling.as_ref().map_or(0, |c| 2 * c.iterations as usize);
         self.check_job_count(
             points.len(),
             metamodel.test_points,
             file.replicates,
-            stages.len(),
+            stages.len() + coupled_jobs,
             rounds,
         )?;
         let file_sha256 = study_hash(text, &simulation, &inputs);
@@ -1302,6 +1436,7 @@ impl Checker<'_> {
             uncertainty,
             stages,
             stop_when,
+            coupling,
             fail_on_missing_response: file.missing_response
                 == Some(file::MissingResponseFile::Fail),
             file_text: text.to_string(),

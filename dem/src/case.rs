@@ -35,6 +35,20 @@
 //! velocity = [0.0, 0.0, 0.0]      # m/s, default still air
 //! ```
 //!
+//! A run may be ended from outside: `stop_file` in `[run]` names a file, relative to
+//! the case file's folder, whose appearance ends the run as if `end_time` had been
+//! reached (`orch-dem run` looks for it every `thermo_every` steps, writes every output
+//! in full, logs the step and time it stopped at and exits with status 0), so that a
+//! caller can stop a run whose response has converged:
+//!
+//! ```toml
+//! [run]
+//! end_time = 2.0
+//! seed = 1
+//! thermo_every = 1000             # steps between log lines and looks for the file
+//! stop_file = "STOP"              # default: none
+//! ```
+//!
 //! A `[verify]` table makes the case a verification benchmark ([`crate::verify`]):
 //! `orch-dem verify` measures its quantities and compares them with the references;
 //! `orch-dem run` ignores it.
@@ -131,9 +145,13 @@ pub struct Run {
     pub stop_check_after: Real,
     /// See `stop_check_after`; absent: never stop early.
     pub stop_when_at_most: Option<usize>,
-    /// Steps between log lines.
+    /// Steps between log lines (and between looks for `stop_file`).
     #[serde(default = "default_thermo_every")]
     pub thermo_every: u64,
+    /// A file, named relative to the case file's folder, whose appearance ends the run
+    /// as if `end_time` had been reached; the caller looks for it every `thermo_every`
+    /// steps. Absent: the run never looks.
+    pub stop_file: Option<String>,
     /// Verlet skin, m (default: half the largest radius, as the LIGGGHTS deck).
     pub skin: Option<Real>,
     /// Gravity, m/s² (default 9.81 downwards along z).
@@ -439,6 +457,12 @@ impl Case {
         finite_positive("run.max_overlap_ratio", run.max_overlap_ratio)?;
         if let Some(skin) = run.skin {
             finite_positive("run.skin", skin)?;
+        }
+        if let Some(file) = run.stop_file.as_ref().filter(|f| f.trim().is_empty()) {
+            return Err(invalid(
+                "run.stop_file",
+                format!("expected a file name relative to the case file's folder, got {file:?}"),
+            ));
         }
         if let Some(air) = &self.air {
             finite_positive("air.density", air.density)?;
@@ -1016,6 +1040,22 @@ radius = 0.0005
         let error =
             check("\n[[verify.check]]\nquantity = \"bounce\"\nreference = 0.5\ntolerance = 0.01\n");
         assert!(error.contains("unknown variant `bounce`"), "{error}");
+    }
+
+    #[test]
+    fn a_stop_file_is_optional_and_must_name_a_file() {
+        let case = Case::parse(&format!("{BASE}{TWO}")).unwrap();
+        assert_eq!(case.run.stop_file, None);
+        let with = BASE.replace("seed = 1\n", "seed = 1\nstop_file = \"STOP\"\n");
+        let case = Case::parse(&format!("{with}{TWO}")).unwrap();
+        assert_eq!(case.run.stop_file.as_deref(), Some("STOP"));
+        let empty = BASE.replace("seed = 1\n", "seed = 1\nstop_file = \" \"\n");
+        assert_eq!(
+            Case::parse(&format!("{empty}{TWO}"))
+                .unwrap_err()
+                .to_string(),
+            "`run.stop_file`: expected a file name relative to the case file's folder, got \" \""
+        );
     }
 
     #[test]

@@ -1,4 +1,5 @@
-//! `orch-dem run`: reads a case file and its meshes, runs the kernel, writes the log,
+//! `orch-dem run`: reads a case file, its meshes and any air velocity field, runs the
+//! kernel, looks for the case's stop file, writes the log,
 //! the sensor's crossings and any dumps. All the kernel's I/O happens here.
 
 use std::fs::File;
@@ -45,8 +46,8 @@ impl RunSummary {
     }
 }
 
-/// Reads `case_path` and the meshes it names (relative to its folder) into a ready
-/// simulation; bad input is a [`BadCase`] naming the file.
+/// Reads `case_path`, the meshes and the air velocity field it names (relative to its
+/// folder) into a ready simulation; bad input is a [`BadCase`] naming the file.
 pub fn load(case_path: &Path) -> anyhow::Result<(Case, Simulation)> {
     let text = std::fs::read_to_string(case_path)
         .with_context(|| format!("cannot read the case file {}", case_path.display()))?;
@@ -68,7 +69,22 @@ pub fn load(case_path: &Path) -> anyhow::Result<(Case, Simulation)> {
                 .map_err(|e| bad(e.to_string()))?,
         );
     }
-    let simulation = case.build(walls).map_err(|e| bad(e.to_string()))?;
+    let air_field = match case.air_field_file() {
+        None => None,
+        Some(file) => {
+            let path = dir.join(file);
+            let text = std::fs::read_to_string(&path).map_err(|e| {
+                bad(format!(
+                    "`air.velocity_field`: cannot read {}: {e}",
+                    path.display()
+                ))
+            })?;
+            Some(case.air_field(&text).map_err(|e| bad(e.to_string()))?)
+        }
+    };
+    let simulation = case
+        .build_with_air_field(walls, air_field)
+        .map_err(|e| bad(e.to_string()))?;
     Ok((case, simulation))
 }
 
@@ -369,6 +385,50 @@ dump_every = 50
             log.trim_end()
                 .ends_with("ORCH-DEM DONE at step 100 (t = 0.010000 s) with 1 particles left"),
             "{log}"
+        );
+    }
+
+    #[test]
+    fn an_air_velocity_field_is_read_beside_the_case_and_a_bad_one_is_named() {
+        let dir = tempfile::tempdir().unwrap();
+        let case = dir.path().join("case.toml");
+        let air = "\n[air]\nvelocity_field = \"air-field.csv\"\n";
+        std::fs::write(&case, format!("{CASE}{air}")).unwrap();
+        let field = dir.path().join("air-field.csv");
+        let message = |case: &Path| match load(case) {
+            Ok(_) => panic!("{} loaded", case.display()),
+            Err(e) => e.downcast::<BadCase>().unwrap().to_string(),
+        };
+        let error = message(&case);
+        assert!(
+            error.starts_with(&format!(
+                "{}: `air.velocity_field`: cannot read {}: ",
+                case.display(),
+                field.display()
+            )),
+            "{error}"
+        );
+        let mut csv = String::from("x,y,z,ux,uy,uz\n");
+        for node in 0..8 {
+            let corner = |bit: usize| if node >> bit & 1 == 1 { "0.1" } else { "-0.1" };
+            csv.push_str(&format!(
+                "{},{},{},0,0,2\n",
+                corner(2),
+                corner(1),
+                corner(0)
+            ));
+        }
+        std::fs::write(&field, &csv).unwrap();
+        let (_, simulation) = load(&case).unwrap();
+        let loaded = simulation.config().air_field.as_ref().unwrap();
+        assert_eq!(loaded.node_counts(), [2, 2, 2]);
+        std::fs::write(&field, csv.replace("\n0.1,0.1,0.1,", "\n0.1,0.1,0.1.5,")).unwrap();
+        assert_eq!(
+            message(&case),
+            format!(
+                "{}: `air.velocity_field` (air-field.csv): line 9: field `z`: expected a number, got `0.1.5`",
+                case.display()
+            )
         );
     }
 

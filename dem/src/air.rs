@@ -1,5 +1,6 @@
 //! Air drag on each particle: `F = ½ ρ_a C_d A |u − v| (u − v)` with `A = π r²`, the
-//! particle's velocity `v`, the air's `u` (still, or a given uniform velocity) and the
+//! particle's velocity `v`, the air's `u` (still, a given uniform velocity, or a gridded
+//! field's value at the particle, [`crate::air_field`]) and the
 //! Schiller–Naumann drag coefficient of a sphere at the particle Reynolds number
 //! `Re = ρ_a |u − v| d / μ`:
 //! `C_d = 24/Re (1 + 0.15 Re^0.687)` below `Re = 1000`, `0.44` above (Schiller &
@@ -33,7 +34,15 @@ pub fn drag_coefficient(re: Real) -> Real {
 impl Air {
     /// The drag force on a sphere of radius `radius_m` moving at `velocity_m_s`, N.
     pub fn drag_n(&self, radius_m: Real, velocity_m_s: Vec3) -> Vec3 {
-        let relative = self.velocity_m_s - velocity_m_s;
+        self.drag_in_n(self.velocity_m_s, radius_m, velocity_m_s)
+    }
+
+    /// The drag force on a sphere of radius `radius_m` moving at `velocity_m_s` where
+    /// this air (its density and viscosity) moves at `air_velocity_m_s` instead of its
+    /// uniform velocity, N.
+    #[inline]
+    pub fn drag_in_n(&self, air_velocity_m_s: Vec3, radius_m: Real, velocity_m_s: Vec3) -> Vec3 {
+        let relative = air_velocity_m_s - velocity_m_s;
         let speed = relative.norm();
         if speed == 0.0 {
             return Vec3::zeros();

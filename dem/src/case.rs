@@ -26,13 +26,35 @@
 //! follows from the radius); the default time step and skin account for it.
 //!
 //! An `[air]` table drags every particle through air ([`crate::air`], the
-//! Schiller–Naumann drag of a sphere), still or blowing uniformly:
+//! Schiller–Naumann drag of a sphere), still, blowing uniformly, or blowing as a field
+//! given on a grid:
 //!
 //! ```toml
 //! [air]
 //! density = 1.2                   # kg/m³, default 1.2
 //! viscosity = 1.8e-5              # Pa·s, default 1.8e-5
 //! velocity = [0.0, 0.0, 0.0]      # m/s, default still air
+//! velocity_field = "air-field.csv"  # default none
+//! ```
+//!
+//! `velocity_field` names a CSV file, relative to the case file's folder, with the
+//! header `x,y,z,ux,uy,uz` (m, m/s) and one row per node of a rectilinear grid, in any
+//! order ([`crate::air_field`]); inside the grid's box the air's velocity at a particle
+//! is the trilinear interpolation of its cell's nodes, outside it `velocity`. The
+//! caller reads the file and hands its text to [`Case::air_field`].
+//!
+//! A run may be ended from outside: `stop_file` in `[run]` names a file, relative to
+//! the case file's folder, whose appearance ends the run as if `end_time` had been
+//! reached (`orch-dem run` looks for it every `thermo_every` steps, writes every output
+//! in full, logs the step and time it stopped at and exits with status 0), so that a
+//! caller can stop a run whose response has converged:
+//!
+//! ```toml
+//! [run]
+//! end_time = 2.0
+//! seed = 1
+//! thermo_every = 1000             # steps between log lines and looks for the file
+//! stop_file = "STOP"              # default: none
 //! ```
 //!
 //! A `[verify]` table makes the case a verification benchmark ([`crate::verify`]):
@@ -42,6 +64,7 @@
 use serde::Deserialize;
 
 use crate::air::Air;
+use crate::air_field::AirField;
 use crate::inflow::Inflow;
 use crate::insert::{counts_from_mass_fractions, insert, Region};
 use crate::material::{Material, ParticleType};
@@ -99,9 +122,14 @@ pub struct AirEntry {
     /// Dynamic viscosity, Pa·s (default 1.8e-5, air at 20 °C).
     #[serde(default = "default_air_viscosity")]
     pub viscosity: Real,
-    /// Velocity, m/s (default still air).
+    /// Velocity, m/s (default still air); outside `velocity_field`'s grid when one is
+    /// given.
     #[serde(default)]
     pub velocity: [Real; 3],
+    /// CSV file of the air's velocity on a grid (`x,y,z,ux,uy,uz`, m and m/s),
+    /// relative to the case file's folder, read by the caller ([`Case::air_field`]);
+    /// absent: `velocity` everywhere.
+    pub velocity_field: Option<String>,
 }
 
 fn default_air_density() -> Real {
@@ -131,9 +159,13 @@ pub struct Run {
     pub stop_check_after: Real,
     /// See `stop_check_after`; absent: never stop early.
     pub stop_when_at_most: Option<usize>,
-    /// Steps between log lines.
+    /// Steps between log lines (and between looks for `stop_file`).
     #[serde(default = "default_thermo_every")]
     pub thermo_every: u64,
+    /// A file, named relative to the case file's folder, whose appearance ends the run
+    /// as if `end_time` had been reached; the caller looks for it every `thermo_every`
+    /// steps. Absent: the run never looks.
+    pub stop_file: Option<String>,
     /// Verlet skin, m (default: half the largest radius, as the LIGGGHTS deck).
     pub skin: Option<Real>,
     /// Gravity, m/s² (default 9.81 downwards along z).
@@ -390,6 +422,14 @@ pub enum CaseError {
         /// What is wrong.
         message: String,
     },
+    /// The air's velocity field file is not a usable grid.
+    #[error("`air.velocity_field` ({file}): {message}")]
+    AirField {
+        /// File as named in the case.
+        file: String,
+        /// What is wrong, with the line when one line is.
+        message: String,
+    },
     /// The simulation cannot start.
     #[error("{0}")]
     Setup(String),
@@ -440,10 +480,24 @@ impl Case {
         if let Some(skin) = run.skin {
             finite_positive("run.skin", skin)?;
         }
+        if let Some(file) = run.stop_file.as_ref().filter(|f| f.trim().is_empty()) {
+            return Err(invalid(
+                "run.stop_file",
+                format!("expected a file name relative to the case file's folder, got {file:?}"),
+            ));
+        }
         if let Some(air) = &self.air {
             finite_positive("air.density", air.density)?;
             finite_positive("air.viscosity", air.viscosity)?;
             finite("air.velocity", &air.velocity)?;
+            if let Some(file) = air.velocity_field.as_ref().filter(|f| f.trim().is_empty()) {
+                return Err(invalid(
+                    "air.velocity_field",
+                    format!(
+                        "expected a CSV file name relative to the case file's folder, got {file:?}"
+                    ),
+                ));
+            }
         }
         finite("domain.min", &self.domain.min)?;
         finite("domain.max", &self.domain.max)?;
@@ -727,9 +781,56 @@ impl Case {
         Ok(wall)
     }
 
+    /// The CSV file `[air] velocity_field` names, relative to the case file's folder;
+    /// `None` when the case names none.
+    pub fn air_field_file(&self) -> Option<&str> {
+        self.air.as_ref()?.velocity_field.as_deref()
+    }
+
+    /// Builds the air's velocity field from the text of the file
+    /// [`Case::air_field_file`] names.
+    pub fn air_field(&self, csv: &str) -> Result<AirField, CaseError> {
+        let file = self.air_field_file().ok_or_else(|| {
+            invalid(
+                "air.velocity_field",
+                "the case's [air] names no velocity field",
+            )
+        })?;
+        AirField::parse_csv(csv).map_err(|e| CaseError::AirField {
+            file: file.to_string(),
+            message: e.to_string(),
+        })
+    }
+
     /// Inserts the particles and sets up the simulation among `walls` (built with
-    /// [`Case::wall_mesh`], in case order).
+    /// [`Case::wall_mesh`], in case order), for a case that names no air velocity
+    /// field (else [`Case::build_with_air_field`]).
     pub fn build(&self, walls: Vec<WallMesh>) -> Result<Simulation, CaseError> {
+        self.build_with_air_field(walls, None)
+    }
+
+    /// As [`Case::build`], with the air's velocity field built by [`Case::air_field`]:
+    /// given exactly when the case names one.
+    pub fn build_with_air_field(
+        &self,
+        walls: Vec<WallMesh>,
+        air_field: Option<AirField>,
+    ) -> Result<Simulation, CaseError> {
+        match (self.air_field_file(), &air_field) {
+            (Some(file), None) => {
+                return Err(invalid(
+                    "air.velocity_field",
+                    format!("the case names {file}, but its field was not given; read the file and build with Case::build_with_air_field"),
+                ))
+            }
+            (None, Some(_)) => {
+                return Err(invalid(
+                    "air.velocity_field",
+                    "a velocity field was given, but the case's [air] names none",
+                ))
+            }
+            _ => {}
+        }
         let types = self.particle_types();
         let mut particles = self.explicit_particles(&types)?;
         if let Some(entry) = &self.insert {
@@ -764,6 +865,7 @@ impl Case {
                 viscosity_pa_s: a.viscosity,
                 velocity_m_s: Vec3::from(a.velocity),
             }),
+            air_field,
         };
         let mut simulation = Simulation::new(config, types, particles, walls)
             .map_err(|e| CaseError::Setup(e.to_string()))?;
@@ -1016,6 +1118,67 @@ radius = 0.0005
         let error =
             check("\n[[verify.check]]\nquantity = \"bounce\"\nreference = 0.5\ntolerance = 0.01\n");
         assert!(error.contains("unknown variant `bounce`"), "{error}");
+    }
+
+    #[test]
+    fn a_stop_file_is_optional_and_must_name_a_file() {
+        let case = Case::parse(&format!("{BASE}{TWO}")).unwrap();
+        assert_eq!(case.run.stop_file, None);
+        let with = BASE.replace("seed = 1\n", "seed = 1\nstop_file = \"STOP\"\n");
+        let case = Case::parse(&format!("{with}{TWO}")).unwrap();
+        assert_eq!(case.run.stop_file.as_deref(), Some("STOP"));
+        let empty = BASE.replace("seed = 1\n", "seed = 1\nstop_file = \" \"\n");
+        assert_eq!(
+            Case::parse(&format!("{empty}{TWO}"))
+                .unwrap_err()
+                .to_string(),
+            "`run.stop_file`: expected a file name relative to the case file's folder, got \" \""
+        );
+    }
+
+    #[test]
+    fn an_air_velocity_field_is_built_from_the_text_the_caller_reads() {
+        let air = "\n[air]\nvelocity = [1.0, 0.0, 0.0]\nvelocity_field = \"air-field.csv\"\n";
+        let case = Case::parse(&format!("{BASE}{TWO}{air}")).unwrap();
+        assert_eq!(case.air_field_file(), Some("air-field.csv"));
+        let csv = "x,y,z,ux,uy,uz\n0,0,0,0,0,2\n1,0,0,0,0,2\n0,1,0,0,0,2\n1,1,0,0,0,2\n0,0,1,0,0,2\n1,0,1,0,0,2\n0,1,1,0,0,2\n1,1,1,0,0,2\n";
+        let field = case.air_field(csv).unwrap();
+        let sim = case
+            .build_with_air_field(vec![], Some(field.clone()))
+            .unwrap();
+        assert_eq!(sim.config().air_field.as_ref(), Some(&field));
+        assert_eq!(
+            sim.config().air.unwrap().velocity_m_s,
+            Vec3::new(1.0, 0.0, 0.0)
+        );
+        // The field must be given when named, and only then.
+        let error = case.build(vec![]).unwrap_err().to_string();
+        assert!(
+            error.starts_with(
+                "`air.velocity_field`: the case names air-field.csv, but its field was not given"
+            ),
+            "{error}"
+        );
+        let plain = Case::parse(&format!("{BASE}{TWO}\n[air]\n")).unwrap();
+        assert_eq!(plain.air_field_file(), None);
+        assert_eq!(
+            plain
+                .build_with_air_field(vec![], Some(field))
+                .unwrap_err()
+                .to_string(),
+            "`air.velocity_field`: a velocity field was given, but the case's [air] names none"
+        );
+        // A bad file is named with its line and field.
+        assert_eq!(
+            case.air_field(&csv.replace("1,0,0,0,0,2", "1,0,0,0,fast,2"))
+                .unwrap_err()
+                .to_string(),
+            "`air.velocity_field` (air-field.csv): line 3: field `uy`: expected a number, got `fast`"
+        );
+        assert_eq!(
+            error_of(&format!("{TWO}\n[air]\nvelocity_field = \"\"\n")),
+            "`air.velocity_field`: expected a CSV file name relative to the case file's folder, got \"\""
+        );
     }
 
     #[test]

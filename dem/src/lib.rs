@@ -2,7 +2,8 @@
 //!
 //! Spheres of several types interact through LIGGGHTS's Hertz–Mindlin contact law
 //! ([`force`]) with each other and with rigid, possibly moving triangle-mesh walls
-//! ([`mesh`], [`walls`]). [`simulation::Simulation`] advances them by velocity Verlet;
+//! ([`mesh`], [`walls`]), and air may drag them ([`air`], blowing uniformly or as a
+//! gridded field, [`air_field`]). [`simulation::Simulation`] advances them by velocity Verlet;
 //! [`insert`] fills a region without overlaps; [`inflow`] feeds a mixture through a
 //! region at a mass rate over a time window; [`case`] reads the case file format
 //! (TOML) that `orch` renders and [`output`] writes LIGGGHTS-compatible dumps, VTK
@@ -17,6 +18,7 @@
 #![forbid(unsafe_code)]
 
 pub mod air;
+pub mod air_field;
 pub mod case;
 pub mod contact;
 pub mod force;

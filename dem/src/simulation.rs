@@ -10,7 +10,8 @@
 //!    ([`crate::inflow`]), and the pair list and wall candidates are rebuilt.
 //! 3. **Pair forces** (parallel over blocks of particles): each pair's Hertz–Mindlin
 //!    force into a per-pair slot, histories updated in place.
-//! 4. **Gather** (parallel over particles): gravity, air drag (when there is air), the
+//! 4. **Gather** (parallel over particles): gravity, air drag (when there is air; in
+//!    the air's velocity field where one is given and covers the particle), the
 //!    particle's pair forces in list order, and its wall contacts; the normal approach energy of wall contacts that
 //!    begin is added to the wall impact energy (in index order).
 //! 5. **Kick**: `v += dt/2 F/m`, `ω += dt/2 τ/I`; speeds and overlaps beyond their
@@ -24,6 +25,7 @@ use std::time::{Duration, Instant};
 use rayon::prelude::*;
 
 use crate::air::Air;
+use crate::air_field::AirField;
 use crate::force::{hertz_mindlin, ContactGeometry};
 use crate::inflow::{Inflow, InflowError, InflowState};
 use crate::material::{ContactTable, Material, ParticleType};
@@ -60,6 +62,9 @@ pub struct Config {
     pub wall_material: Material,
     /// Air that drags every particle ([`crate::air`]); `None`: vacuum.
     pub air: Option<Air>,
+    /// The air's velocity on a grid ([`crate::air_field`]): inside the grid's box it
+    /// replaces `air`'s uniform velocity; needs `air`. `None`: uniform air everywhere.
+    pub air_field: Option<AirField>,
 }
 
 /// A particle crossing the sensor plane downwards.
@@ -226,6 +231,9 @@ pub enum SetupError {
         /// The domain's smallest extent, m.
         extent_m: Real,
     },
+    /// A velocity field was given without air to carry it.
+    #[error("an air velocity field needs air (its density and viscosity); add the air or drop the field")]
+    AirFieldWithoutAir,
     /// The initial state already overlaps beyond the bound.
     #[error("the initial state: {0}")]
     Initial(#[from] Unstable),
@@ -253,6 +261,9 @@ impl Simulation {
         positive("the skin (m)", config.skin_m)?;
         positive("max_speed (m/s)", config.max_speed_m_s)?;
         positive("max_overlap_ratio", config.max_overlap_ratio)?;
+        if config.air_field.is_some() && config.air.is_none() {
+            return Err(SetupError::AirFieldWithoutAir);
+        }
         let extent = (config.domain_max_m - config.domain_min_m).min();
         positive("the domain's smallest extent (m)", extent)?;
         for (kind, t) in types.iter().enumerate() {
@@ -788,6 +799,7 @@ impl Simulation {
         };
         let gravity = self.config.gravity_m_s2;
         let air = self.config.air;
+        let air_field = self.config.air_field.as_ref();
         let pairs = &self.pairs;
         let loads = &self.pair_loads;
         let candidates = &self.wall_candidates;
@@ -831,7 +843,12 @@ impl Simulation {
                     kind: kind[i] as usize,
                 };
                 let wall = wall_load(&walls, candidates.of(i), &particle, contacts);
-                let drag = air.map_or(Vec3::zeros(), |a| a.drag_n(radius[i], velocity[i]));
+                let drag = air.map_or(Vec3::zeros(), |a| {
+                    match air_field.and_then(|field| field.velocity_at(position[i])) {
+                        Some(wind) => a.drag_in_n(wind, radius[i], velocity[i]),
+                        None => a.drag_n(radius[i], velocity[i]),
+                    }
+                });
                 *force = f + wall.force_n + mass[i] * gravity + drag;
                 *torque = t + wall.torque_n_m;
                 *impact = wall.impact_energy_j;

@@ -1,8 +1,10 @@
 //! Air drag: a sphere falling from rest in still air reaches the terminal speed where
-//! Schiller–Naumann drag balances its weight, and a sphere at rest in a wind is carried
-//! along it.
+//! Schiller–Naumann drag balances its weight, a sphere at rest in a wind is carried
+//! along it, and a wind given on a grid acts as the same wind inside the grid and not
+//! beyond it.
 
 use orch_dem::air::Air;
+use orch_dem::air_field::AirField;
 use orch_dem::material::ParticleType;
 use orch_dem::math::Real;
 use orch_dem::{Simulation, Vec3};
@@ -97,4 +99,76 @@ fn lone_sphere(dt: Real) -> orch_dem::Config {
     config.skin_m = 10.0;
     config.max_speed_m_s = 100.0;
     config
+}
+
+#[test]
+fn a_uniform_wind_given_on_a_grid_drives_a_sphere_as_the_same_uniform_wind_and_not_beyond_the_grid()
+{
+    let kind = glass(0.5e-3);
+    let dt = 1e-4;
+    let wind = Vec3::new(0.0, 0.0, 2.0);
+    // 2 m/s upwards at every node of an unevenly spaced grid that holds the sphere's
+    // whole flight (it rises about 0.6 m in the second simulated).
+    let (xs, ys, zs) = (
+        [-0.2, -0.05, 0.1, 0.2],
+        [-0.2, 0.0, 0.2],
+        [-0.1, 0.3, 0.7, 1.5, 3.0],
+    );
+    let mut csv = String::from("x,y,z,ux,uy,uz\n");
+    for x in xs {
+        for y in ys {
+            for z in zs {
+                csv.push_str(&format!("{x},{y},{z},{},{},{}\n", wind.x, wind.y, wind.z));
+            }
+        }
+    }
+    let still = Air {
+        density_kg_m3: 1.2,
+        viscosity_pa_s: 1.8e-5,
+        velocity_m_s: Vec3::zeros(),
+    };
+    let mut gridded = lone_sphere(dt);
+    gridded.air = Some(still);
+    gridded.air_field = Some(AirField::parse_csv(&csv).unwrap());
+    let mut uniform = lone_sphere(dt);
+    uniform.air = Some(Air {
+        velocity_m_s: wind,
+        ..still
+    });
+    // The first sphere inside the grid; the second 1 mm beyond its x = 0.2 m face.
+    let (inside, outside) = (Vec3::zeros(), Vec3::new(0.201, 0.0, 0.0));
+    let rest = Vec3::zeros();
+    let two = particles(&kind, &[inside, outside], &[rest, rest]);
+    let mut in_field = Simulation::new(gridded, vec![kind], two, vec![]).unwrap();
+    let one = particles(&kind, &[inside], &[rest]);
+    let mut in_wind = Simulation::new(uniform, vec![kind], one, vec![]).unwrap();
+    let close = |a: Vec3, b: Vec3| (a - b).norm() <= 1e-9 * b.norm();
+    let mut previous = 0.0;
+    for _ in 0..10 {
+        for _ in 0..1000 {
+            in_field.step().unwrap();
+            in_wind.step().unwrap();
+        }
+        let (field, wind) = (&in_field.particles, &in_wind.particles);
+        assert!(
+            close(field.position_m[0], wind.position_m[0])
+                && close(field.velocity_m_s[0], wind.velocity_m_s[0]),
+            "at t = {} s: {:?}, {:?} in the gridded wind against {:?}, {:?} in the uniform one",
+            in_field.time_s(),
+            field.position_m[0],
+            field.velocity_m_s[0],
+            wind.position_m[0],
+            wind.velocity_m_s[0]
+        );
+        // It speeds up towards the wind's speed without reaching it.
+        let v = field.velocity_m_s[0].z;
+        assert!(v > previous && v < 2.0, "{v} m/s after {previous} m/s");
+        previous = v;
+        // Beyond the grid the air is still: with no gravity nothing moves it.
+        assert_eq!(
+            (field.position_m[1], field.velocity_m_s[1]),
+            (outside, Vec3::zeros())
+        );
+    }
+    assert!(previous > 0.5, "{previous} m/s after 1 s");
 }

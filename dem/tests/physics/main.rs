@@ -65,6 +65,7 @@ pub fn config(timestep_s: Real, wall: Material) -> Config {
         max_overlap_ratio: 0.25,
         wall_material: wall,
         air: None,
+        air_field: None,
     }
 }
 

@@ -8,9 +8,9 @@
 //! It lives in the `orch` package so that `cargo install --path orchestrator`
 //! installs it beside `orch`.
 //!
-//! Exit status: 0 finished (for `verify`: every check passed), 1 the run failed (e.g.
-//! went unstable; the log says at which step and particle) or a verification check
-//! failed, 2 bad case file or mesh.
+//! Exit status: 0 finished (also when the case's `stop_file` ended the run early; for
+//! `verify`: every check passed), 1 the run failed (e.g. went unstable; the log says at
+//! which step and particle) or a verification check failed, 2 bad case file or mesh.
 
 mod bench;
 mod run;
@@ -61,11 +61,16 @@ fn main() {
     let result = match args.command {
         Command::Run { case, log, threads } => run::run(&case, &log, threads.max(1)).map(|s| {
             println!(
-                "orch-dem: {} steps, {:.4e} particle-steps/s, {} particles left, {:.4e} kg discharged",
+                "orch-dem: {} steps, {:.4e} particle-steps/s, {} particles left, {:.4e} kg discharged{}",
                 s.steps,
                 s.throughput(),
                 s.remaining,
-                s.discharged_mass_kg
+                s.discharged_mass_kg,
+                if s.stopped_by_stop_file {
+                    ", stopped by the case's stop file"
+                } else {
+                    ""
+                }
             );
         }),
         Command::Bench(args) => bench::bench(&args),

@@ -1,4 +1,5 @@
-//! `orch-dem run`: reads a case file and its meshes, runs the kernel, writes the log,
+//! `orch-dem run`: reads a case file, its meshes and any air velocity field, runs the
+//! kernel, looks for the case's stop file, writes the log,
 //! the sensor's crossings and any dumps. All the kernel's I/O happens here.
 
 use std::fs::File;
@@ -34,6 +35,8 @@ pub struct RunSummary {
     pub remaining: usize,
     /// Mass that left through the sink, kg.
     pub discharged_mass_kg: f64,
+    /// Whether the case's `stop_file` ended the run before `end_time`.
+    pub stopped_by_stop_file: bool,
 }
 
 impl RunSummary {
@@ -43,8 +46,8 @@ impl RunSummary {
     }
 }
 
-/// Reads `case_path` and the meshes it names (relative to its folder) into a ready
-/// simulation; bad input is a [`BadCase`] naming the file.
+/// Reads `case_path`, the meshes and the air velocity field it names (relative to its
+/// folder) into a ready simulation; bad input is a [`BadCase`] naming the file.
 pub fn load(case_path: &Path) -> anyhow::Result<(Case, Simulation)> {
     let text = std::fs::read_to_string(case_path)
         .with_context(|| format!("cannot read the case file {}", case_path.display()))?;
@@ -66,7 +69,22 @@ pub fn load(case_path: &Path) -> anyhow::Result<(Case, Simulation)> {
                 .map_err(|e| bad(e.to_string()))?,
         );
     }
-    let simulation = case.build(walls).map_err(|e| bad(e.to_string()))?;
+    let air_field = match case.air_field_file() {
+        None => None,
+        Some(file) => {
+            let path = dir.join(file);
+            let text = std::fs::read_to_string(&path).map_err(|e| {
+                bad(format!(
+                    "`air.velocity_field`: cannot read {}: {e}",
+                    path.display()
+                ))
+            })?;
+            Some(case.air_field(&text).map_err(|e| bad(e.to_string()))?)
+        }
+    };
+    let simulation = case
+        .build_with_air_field(walls, air_field)
+        .map_err(|e| bad(e.to_string()))?;
     Ok((case, simulation))
 }
 
@@ -89,7 +107,9 @@ pub fn run(case_path: &Path, log_path: &Path, threads: usize) -> anyhow::Result<
             return Err(error);
         }
     };
-    let post = case_path.parent().unwrap_or(Path::new(".")).join("post");
+    let case_dir = case_path.parent().unwrap_or(Path::new("."));
+    let post = case_dir.join("post");
+    let stop_file = case.run.stop_file.as_ref().map(|name| case_dir.join(name));
     std::fs::create_dir_all(&post).with_context(|| format!("cannot create {}", post.display()))?;
     let crossings_path = post.join("crossings.csv");
     let mut crossings = BufWriter::new(
@@ -125,6 +145,7 @@ pub fn run(case_path: &Path, log_path: &Path, threads: usize) -> anyhow::Result<
     thermo(&mut log, &simulation)?;
 
     let started = Instant::now();
+    let mut stopped_by_stop_file = false;
     let outcome = pool.install(|| -> anyhow::Result<()> {
         for _ in 0..steps {
             if let Err(unstable) = simulation.step() {
@@ -137,12 +158,16 @@ pub fn run(case_path: &Path, log_path: &Path, threads: usize) -> anyhow::Result<
             if step.is_multiple_of(case.run.thermo_every.max(1)) {
                 thermo(&mut log, &simulation)?;
                 crossings.flush()?;
+                // One look per log line; on the last step the run ends anyway.
+                stopped_by_stop_file =
+                    step < steps && stop_file.as_ref().is_some_and(|file| file.exists());
             }
             write_snapshots(&case, &simulation, &post)?;
-            let stop = case.run.stop_when_at_most.is_some_and(|at_most| {
-                simulation.time_s() >= case.run.stop_check_after
-                    && simulation.remaining() <= at_most
-            });
+            let stop = stopped_by_stop_file
+                || case.run.stop_when_at_most.is_some_and(|at_most| {
+                    simulation.time_s() >= case.run.stop_check_after
+                        && simulation.remaining() <= at_most
+                });
             if stop {
                 break;
             }
@@ -160,6 +185,7 @@ pub fn run(case_path: &Path, log_path: &Path, threads: usize) -> anyhow::Result<
         timers: simulation.timers(),
         remaining: simulation.remaining(),
         discharged_mass_kg: simulation.discharged_mass_kg(),
+        stopped_by_stop_file,
     };
     writeln!(
         log,
@@ -175,6 +201,17 @@ pub fn run(case_path: &Path, log_path: &Path, threads: usize) -> anyhow::Result<
         "Wall impact energy of {:.9e} J",
         simulation.wall_impact_energy_j()
     )?;
+    if let Some(file) = stop_file.filter(|_| stopped_by_stop_file) {
+        // After the loop line, where the native adapter's log reader ignores it.
+        writeln!(
+            log,
+            "Stopped by the stop file {} at step {} (t = {:.6} s), before the end time {} s",
+            file.display(),
+            summary.steps,
+            simulation.time_s(),
+            case.run.end_time
+        )?;
+    }
     writeln!(
         log,
         "ORCH-DEM DONE at step {} (t = {:.6} s) with {} particles left",
@@ -225,4 +262,184 @@ fn write_snapshots(case: &Case, simulation: &Simulation, post: &Path) -> anyhow:
         out.flush()?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use std::io::BufReader;
+
+    use orch_adapters::dump::read_dump;
+    use orch_adapters::native::{read_crossings, read_log};
+
+    use super::*;
+
+    /// One glass sphere launched down at 1 m/s through a sensor plane 4 mm below it
+    /// (it crosses near step 40), for 2000 steps of 0.1 ms, a log line every 100 steps
+    /// and a dump every 50; its stop file is `STOP`.
+    const CASE: &str = r#"
+[run]
+timestep = 1e-4
+end_time = 0.2
+seed = 1
+thermo_every = 100
+stop_file = "STOP"
+skin = 0.01
+
+[domain]
+min = [-0.05, -0.05, -0.5]
+max = [0.05, 0.05, 0.05]
+
+[[types]]
+name = "glass"
+radius = 0.001
+density = 2500
+youngs_modulus = 5e6
+poisson_ratio = 0.3
+restitution = 0.5
+friction = 0.3
+
+[wall_material]
+youngs_modulus = 5e6
+poisson_ratio = 0.3
+restitution = 0.5
+friction = 0.3
+
+[[particles]]
+type = "glass"
+position = [0.0, 0.0, 0.004]
+velocity = [0.0, 0.0, -1.0]
+
+[sensor]
+z = 0.0
+
+[output]
+dump_every = 50
+"#;
+
+    /// Runs `CASE` in a fresh folder, with its stop file there from the start when
+    /// `stop_file_present`; returns the folder, the summary and the log's text.
+    fn run_case(stop_file_present: bool) -> (tempfile::TempDir, RunSummary, String) {
+        let dir = tempfile::tempdir().unwrap();
+        let case = dir.path().join("case.toml");
+        std::fs::write(&case, CASE).unwrap();
+        if stop_file_present {
+            std::fs::write(dir.path().join("STOP"), "").unwrap();
+        }
+        let log = dir.path().join("log.native");
+        let summary = run(&case, &log, 1).unwrap();
+        let text = std::fs::read_to_string(&log).unwrap();
+        (dir, summary, text)
+    }
+
+    /// The log, crossings and dumps of a finished run read back as the native adapter
+    /// reads them; returns the dumps' time steps in order.
+    fn check_outputs(dir: &Path, summary: &RunSummary) -> Vec<u64> {
+        let log_path = dir.join("log.native");
+        let log = read_log(BufReader::new(File::open(&log_path).unwrap()), &log_path).unwrap();
+        assert_eq!(log.steps, summary.steps);
+        let last = *log.kinetic_energy.last().unwrap();
+        assert_eq!(last.0, summary.steps as f64 * 1e-4);
+        let crossings_path = dir.join("post/crossings.csv");
+        let crossings = read_crossings(
+            BufReader::new(File::open(&crossings_path).unwrap()),
+            &crossings_path,
+        )
+        .unwrap();
+        assert_eq!(crossings.len(), 1, "{crossings:?}");
+        let mut dumps: Vec<u64> = std::fs::read_dir(dir.join("post"))
+            .unwrap()
+            .filter_map(|e| {
+                let name = e.unwrap().file_name().into_string().unwrap();
+                name.strip_prefix("dump")?
+                    .strip_suffix(".liggghts")?
+                    .parse()
+                    .ok()
+            })
+            .collect();
+        dumps.sort_unstable();
+        for step in &dumps {
+            let path = dir.join(format!("post/dump{step}.liggghts"));
+            let read = read_dump(BufReader::new(File::open(&path).unwrap()), &path, |s| {
+                assert_eq!((s.timestep, s.len()), (*step, 1));
+                Ok(())
+            })
+            .unwrap();
+            assert_eq!(read.snapshots, 1);
+        }
+        dumps
+    }
+
+    #[test]
+    fn a_stop_file_present_from_the_start_ends_the_run_at_the_first_check() {
+        let (dir, summary, log) = run_case(true);
+        assert!(summary.stopped_by_stop_file);
+        assert_eq!(summary.steps, 100);
+        assert_eq!(check_outputs(dir.path(), &summary), [50, 100]);
+        let stop_file = dir.path().join("STOP");
+        let line = format!(
+            "Stopped by the stop file {} at step 100 (t = 0.010000 s), before the end time 0.2 s",
+            stop_file.display()
+        );
+        assert_eq!(log.matches(&line).count(), 1, "{log}");
+        assert!(
+            log.trim_end()
+                .ends_with("ORCH-DEM DONE at step 100 (t = 0.010000 s) with 1 particles left"),
+            "{log}"
+        );
+    }
+
+    #[test]
+    fn an_air_velocity_field_is_read_beside_the_case_and_a_bad_one_is_named() {
+        let dir = tempfile::tempdir().unwrap();
+        let case = dir.path().join("case.toml");
+        let air = "\n[air]\nvelocity_field = \"air-field.csv\"\n";
+        std::fs::write(&case, format!("{CASE}{air}")).unwrap();
+        let field = dir.path().join("air-field.csv");
+        let message = |case: &Path| match load(case) {
+            Ok(_) => panic!("{} loaded", case.display()),
+            Err(e) => e.downcast::<BadCase>().unwrap().to_string(),
+        };
+        let error = message(&case);
+        assert!(
+            error.starts_with(&format!(
+                "{}: `air.velocity_field`: cannot read {}: ",
+                case.display(),
+                field.display()
+            )),
+            "{error}"
+        );
+        let mut csv = String::from("x,y,z,ux,uy,uz\n");
+        for node in 0..8 {
+            let corner = |bit: usize| if node >> bit & 1 == 1 { "0.1" } else { "-0.1" };
+            csv.push_str(&format!(
+                "{},{},{},0,0,2\n",
+                corner(2),
+                corner(1),
+                corner(0)
+            ));
+        }
+        std::fs::write(&field, &csv).unwrap();
+        let (_, simulation) = load(&case).unwrap();
+        let loaded = simulation.config().air_field.as_ref().unwrap();
+        assert_eq!(loaded.node_counts(), [2, 2, 2]);
+        std::fs::write(&field, csv.replace("\n0.1,0.1,0.1,", "\n0.1,0.1,0.1.5,")).unwrap();
+        assert_eq!(
+            message(&case),
+            format!(
+                "{}: `air.velocity_field` (air-field.csv): line 9: field `z`: expected a number, got `0.1.5`",
+                case.display()
+            )
+        );
+    }
+
+    #[test]
+    fn without_its_stop_file_a_run_reaches_its_end_time() {
+        let (dir, summary, log) = run_case(false);
+        assert!(!summary.stopped_by_stop_file);
+        assert_eq!(summary.steps, 2000);
+        let dumps = check_outputs(dir.path(), &summary);
+        assert_eq!(dumps.len(), 40);
+        assert_eq!(dumps.last(), Some(&2000));
+        assert!(!log.contains("stop file"), "{log}");
+    }
 }

@@ -102,11 +102,14 @@ async fn own_design_runs(
         .collect();
     let mut responses = store.responses(study_id).await?;
     let mut out: BTreeMap<i64, Vec<Run>> = BTreeMap::new();
-    for job in store.jobs(study_id).await? {
+    let jobs = store.jobs(study_id).await?;
+    // A coupled chain's later DEM and CFD runs replace its earlier ones.
+    let superseded = crate::coupling::superseded(&jobs);
+    for job in jobs {
         let Some(point) = points.get(&job.point_id) else {
             continue;
         };
-        if job.state() != JobState::Succeeded {
+        if job.state() != JobState::Succeeded || superseded.contains(&job.id) {
             continue;
         }
         out.entry(point.round).or_default().push(Run {

@@ -112,3 +112,97 @@ fn a_failed_dem_job_fails_its_cfd_stage_and_the_study_goes_on() {
         "{cfd:#}"
     );
 }
+
+/// `coupling:`: each DEM job is followed by its CFD stage, then the DEM again in the
+/// air that stage computed (a 9 × 9 × 11 grid of velocities), then the CFD on the new
+/// stream, until the exit speed 60 mm under the outlet moves by less than 2 %.
+const COUPLED: &str = "\
+name: coupled
+solver: native
+executor: {max_parallel: 2, time_limit: 5min, retries: 0}
+factors:
+  - {name: outlet_diameter, min: 0.020, max: 0.026, unit: m}
+fixed:
+  n_particles: 1500
+  fill_time: 0.2
+  discharge_time: 0.8
+  sensor_depth: 0.06
+  air_density: 1.2
+design: {type: full_factorial, levels: 2}
+seed: 9
+responses: [discharge_rate, exit_speed, air_entrained_flow]
+cfd:
+  fixed: {end_time: 0.2, cells_across: 16, cells_down: 20}
+coupling: {iterations: 2, response: exit_speed, tolerance: 0.02}
+";
+
+#[test]
+fn a_coupled_study_runs_the_dem_again_in_the_cfd_air_until_the_exit_speed_settles() {
+    if !require_openfoam() {
+        return;
+    }
+    let _lock = solver_lock();
+    let project = Project::new();
+    let file = project.write("coupled.yaml", COUPLED);
+    let output = project.run(&["submit", file.to_str().unwrap()]);
+    let stderr = text(&output.stderr);
+    assert_eq!(output.status.code(), Some(0), "{stderr}");
+    let status = project.status("coupled");
+    let jobs = status["jobs"].as_array().unwrap();
+    let job = |name: &str| {
+        jobs.iter()
+            .find(|j| j["name"] == name)
+            .unwrap_or_else(|| panic!("no job {name}: {status:#}"))
+    };
+    for point in ["p000r0", "p001r0"] {
+        let still = job(point);
+        let cfd = job(&format!("{point}-cfd"));
+        let moving = job(&format!("{point}-air1"));
+        assert_eq!(still["state"], "succeeded", "{still:#}");
+        assert_eq!(cfd["state"], "succeeded", "{cfd:#}");
+        assert_eq!(moving["state"], "succeeded", "{moving:#}");
+        let field = std::fs::read_to_string(
+            project
+                .project_dir()
+                .join(format!("runs/coupled/{point}-air1/air-field.csv")),
+        )
+        .unwrap();
+        assert_eq!(field.lines().count(), 1 + 9 * 9 * 11);
+        assert!(field.starts_with("x,y,z,ux,uy,uz\n"));
+        // The stream drags the air down: the grid's mean vertical velocity is negative.
+        let uz: Vec<f64> = field
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').nth(5).unwrap().parse().unwrap())
+            .collect();
+        let mean_uz = uz.iter().sum::<f64>() / uz.len() as f64;
+        assert!(mean_uz < 0.0, "mean air velocity {mean_uz} m/s");
+        let speed = |j: &serde_json::Value| j["responses"]["exit_speed"].as_f64().unwrap();
+        let change = (speed(moving) - speed(still)) / speed(still);
+        eprintln!(
+            "{point}: exit speed {:.5} m/s in still air, {:.5} in the CFD air ({:+.3} %); mean air uz {mean_uz:.4} m/s",
+            speed(still),
+            speed(moving),
+            100.0 * change
+        );
+        assert_ne!(
+            speed(moving),
+            speed(still),
+            "the moving air changed nothing"
+        );
+        // Settled or not, the chain ends after two DEM runs in air at most; a settled
+        // chain cancels the rest with why.
+        let next = job(&format!("{point}-cfd2"));
+        if change.abs() < 0.02 {
+            assert_eq!(next["state"], "cancelled", "{next:#}");
+            let note = next["error"].as_str().unwrap_or("");
+            assert!(
+                note.starts_with(&format!("coupling settled at {point}-air1: exit_speed")),
+                "{note}"
+            );
+            assert_eq!(job(&format!("{point}-air2"))["state"], "cancelled");
+        } else {
+            assert_eq!(next["state"], "succeeded", "{next:#}");
+        }
+    }
+}

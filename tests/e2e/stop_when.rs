@@ -20,7 +20,8 @@ factors:
   - {{name: outlet_diameter, min: 0.020, max: 0.024, unit: m}}
 fixed:
   n_particles: 4000
-  fill_time: 0.25
+  pour_rate: 0.2
+  fill_time: 0.55
   discharge_time: 3.0
 design: {{type: full_factorial, levels: 2}}
 seed: 3

@@ -145,3 +145,32 @@ fn a_sensor_dump_that_holds_less_than_the_sink_removed_is_refused() {
         "{error}"
     );
 }
+
+#[test]
+fn a_running_dump_is_read_up_to_its_last_snapshot_which_may_be_half_written() {
+    // Particle 1 crosses z = -0.005 between steps 100 and 150; step 200's snapshot is
+    // being written (its atom line cut short) and is left out; no log is read.
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir_all(dir.path().join("post")).unwrap();
+    let snapshot = |step: u64, z: f64| {
+        format!(
+            "ITEM: TIMESTEP\n{step}\nITEM: NUMBER OF ATOMS\n1\nITEM: BOX BOUNDS mm mm mm\n0 1\n0 1\n0 1\nITEM: ATOMS id type radius mass x y z vx vy vz\n1 2 0.001 1e-5 0.003 0.004 {z} 0 0 -1\n"
+        )
+    };
+    let full = snapshot(100, -0.0045) + &snapshot(150, -0.0055);
+    let writing = format!("{full}ITEM: TIMESTEP\n200\nITEM: NUMBER OF ATOMS\n1\nITEM: BOX BOUNDS mm mm mm\n0 1\n0 1\n0 1\nITEM: ATOMS id type radius mass x y z vx vy vz\n1 2 0.0");
+    std::fs::write(dir.path().join(SENSOR_DUMP), writing).unwrap();
+    let sensor = crate::SensorPlane { height_m: -0.005 };
+    let observations = (SOLVER.parse_running)(&case_with(&[]), &sensor, dir.path()).unwrap();
+    assert_eq!(observations.crossings.len(), 1);
+    assert!((observations.crossings[0].time_s - 125.0 * 2e-5).abs() < 1e-12);
+    assert_eq!(observations.solver_loop_time_s, None);
+    // A dump whose only snapshot is still being written holds no crossing yet.
+    std::fs::write(
+        dir.path().join(SENSOR_DUMP),
+        "ITEM: TIMESTEP\n100\nITEM: NUMBER OF ATOMS\n1\nITEM: BOX",
+    )
+    .unwrap();
+    let observations = (SOLVER.parse_running)(&case_with(&[]), &sensor, dir.path()).unwrap();
+    assert!(observations.crossings.is_empty());
+}

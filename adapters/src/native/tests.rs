@@ -289,3 +289,22 @@ fn crossings_with_no_mass_or_a_negative_time_are_malformed() {
         assert!(error.contains(what), "{what}: {error}");
     }
 }
+
+#[test]
+fn a_running_crossings_file_is_read_up_to_its_last_complete_line() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir_all(dir.path().join("post")).unwrap();
+    let row = "0.25,3,2,0.001,1e-5,0,0.002,-0.005,0,0,-0.5";
+    std::fs::write(
+        dir.path().join(CROSSINGS_FILE),
+        format!("{CROSSINGS_HEADER}\n{row}\n0.5,7,1,0.00"),
+    )
+    .unwrap();
+    let sensor = crate::SensorPlane { height_m: -0.005 };
+    let case = case_with(&[]);
+    let observations = (SOLVER.parse_running)(&case, &sensor, dir.path()).unwrap();
+    assert_eq!(observations.crossings.len(), 1);
+    assert_eq!(observations.crossings[0].id, 3);
+    // The log is not read: a running kernel has not written its summary yet.
+    assert_eq!(observations.solver_loop_time_s, None);
+}

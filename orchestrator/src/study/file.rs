@@ -95,7 +95,8 @@ pub struct StudyFile {
 pub struct CouplingFile {
     /// DEM runs in moving air after the first, still-air one, at most.
     pub iterations: u32,
-    /// The DEM response whose change decides (default `discharge_rate`).
+    /// The DEM response whose change decides (default: the equipment's first
+    /// headline response, the hopper's discharge rate).
     #[serde(default)]
     pub response: Option<String>,
     /// Relative change of that response between two DEM runs that ends the iteration.

@@ -843,10 +843,17 @@ impl Checker<'_> {
                 ),
             ));
         }
-        let response = coupling
+        // Default: the equipment's first headline response (the hopper's rate).
+        let Some(response) = coupling
             .response
             .clone()
-            .unwrap_or_else(|| "discharge_rate".to_string());
+            .or_else(|| simulation.headline_responses().into_iter().next())
+        else {
+            return Err(self.error(
+                "coupling.response",
+                "expected the DEM response whose change ends the iteration",
+            ));
+        };
         if !simulation.responses().iter().any(|r| r.name == response) {
             let names: Vec<&str> = simulation
                 .responses()

@@ -583,3 +583,43 @@ fn stop_when_names_a_response_with_an_interval_and_a_relative_target() {
         "jobs/study.yaml:18:51: stop_when.ci95_below: expected the relative half-width of the interval, between 0 and 1 (0.03 = ±3 %), got 3"
     );
 }
+
+#[test]
+fn coupling_needs_the_cfd_stage_and_the_native_kernel_and_defaults_to_the_headline_response() {
+    let native = VALID.replace("solver: liggghts", "solver: native");
+    let cfd = "cfd:\n  fixed: {end_time: 0.2}\n";
+    let study = load(&format!(
+        "{native}{cfd}coupling: {{iterations: 2, tolerance: 0.01}}\n"
+    ))
+    .unwrap();
+    assert_eq!(
+        study.coupling,
+        Some(Coupling {
+            iterations: 2,
+            response: "discharge_rate".to_string(),
+            tolerance: 0.01,
+        })
+    );
+    let without_cfd = error(&format!(
+        "{native}coupling: {{iterations: 2, tolerance: 0.01}}\n"
+    ));
+    assert!(
+        without_cfd.contains("coupling: couples the DEM with the air of the `cfd` stage"),
+        "{without_cfd}"
+    );
+    let on_liggghts = error(&format!(
+        "{VALID}{cfd}coupling: {{iterations: 2, tolerance: 0.01}}\n"
+    ));
+    assert!(
+        on_liggghts.contains("the liggghts solver cannot run the DEM in the CFD stage's air")
+            && on_liggghts.contains("needs the native kernel"),
+        "{on_liggghts}"
+    );
+    let zero = error(&format!(
+        "{native}{cfd}coupling: {{iterations: 0, tolerance: 0.01}}\n"
+    ));
+    assert!(
+        zero.contains("coupling.iterations: expected 1 to 10"),
+        "{zero}"
+    );
+}

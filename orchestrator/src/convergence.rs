@@ -6,9 +6,10 @@
 //! [`STOP_FILE`] into the run directory with why; every solver's template checks for
 //! that file (the native kernel's `stop_file`, a LIGGGHTS `shell test -e` between
 //! chunks, the YADE script's sensor) and ends the run as if its end time had come. The
-//! run succeeds, and its responses come from all it wrote. Two checks rather than one,
-//! because an interval from the first few batches of a steady window can be narrow by
-//! chance.
+//! run succeeds, and its responses come from all it wrote. Several checks rather than
+//! one, each on more output than the one before (a check that finds the same values
+//! as the last, because the run wrote nothing new, does not count), because an interval
+//! from the first few batches of a steady window can be narrow by chance.
 
 use std::collections::HashMap;
 use std::path::Path;
@@ -18,8 +19,9 @@ use orch_adapters::RunResults;
 
 use crate::study::{StopWhen, STOP_FILE};
 
-/// Checks in a row the interval must pass before the run is stopped.
-pub const NARROW_CHECKS: u32 = 2;
+/// Checks in a row, each on new output, the interval must pass before the run is
+/// stopped.
+pub const NARROW_CHECKS: u32 = 3;
 
 /// The response and its relative interval half-width in `results`, when both are
 /// there and the response is not zero.
@@ -58,7 +60,16 @@ pub fn stopped_early(run_dir: &Path) -> Option<String> {
 /// interval narrow enough.
 #[derive(Debug, Default)]
 pub struct ConvergenceWatch {
-    checked: HashMap<i64, (Instant, u32)>,
+    checked: HashMap<i64, Checked>,
+}
+
+/// The last check of a job.
+#[derive(Debug, Clone, Copy)]
+struct Checked {
+    at: Instant,
+    narrow_in_a_row: u32,
+    /// The response and interval it found, to tell new output from old.
+    seen: Option<(f64, f64)>,
 }
 
 impl ConvergenceWatch {
@@ -66,16 +77,32 @@ impl ConvergenceWatch {
     pub fn due(&self, job_id: i64, stop: &StopWhen, now: Instant) -> bool {
         self.checked
             .get(&job_id)
-            .is_none_or(|&(at, _)| now.duration_since(at) >= stop.check_every)
+            .is_none_or(|c| now.duration_since(c.at) >= stop.check_every)
     }
 
-    /// Records a check of job `job_id`; true when its interval has now been narrow
-    /// enough at [`NARROW_CHECKS`] checks in a row.
-    pub fn record(&mut self, job_id: i64, narrow: bool, now: Instant) -> bool {
-        let entry = self.checked.entry(job_id).or_insert((now, 0));
-        entry.0 = now;
-        entry.1 = if narrow { entry.1 + 1 } else { 0 };
-        entry.1 >= NARROW_CHECKS
+    /// Records a check of job `job_id` that found `seen` (the response and its
+    /// relative interval, if defined) and whether that is `narrow` enough; true when
+    /// the interval has now been narrow at [`NARROW_CHECKS`] checks in a row. A check
+    /// that found exactly what the last one found counts neither way.
+    pub fn record(
+        &mut self,
+        job_id: i64,
+        seen: Option<(f64, f64)>,
+        narrow: bool,
+        now: Instant,
+    ) -> bool {
+        let entry = self.checked.entry(job_id).or_insert(Checked {
+            at: now,
+            narrow_in_a_row: 0,
+            seen: None,
+        });
+        entry.at = now;
+        if seen.is_some() && seen == entry.seen {
+            return false;
+        }
+        entry.seen = seen;
+        entry.narrow_in_a_row = if narrow { entry.narrow_in_a_row + 1 } else { 0 };
+        entry.narrow_in_a_row >= NARROW_CHECKS
     }
 
     /// Forgets job `job_id` (it ended, or was stopped).
@@ -120,19 +147,23 @@ mod tests {
     }
 
     #[test]
-    fn two_narrow_checks_in_a_row_stop_a_run_and_a_wide_one_starts_again() {
+    fn narrow_checks_on_new_output_in_a_row_stop_a_run_and_a_wide_one_starts_again() {
         let mut watch = ConvergenceWatch::default();
-        let t0 = Instant::now();
+        let t = |s: u64| Instant::now() + Duration::from_secs(s);
+        let t0 = t(0);
         assert!(watch.due(7, &stop(), t0));
-        assert!(!watch.record(7, true, t0));
+        assert!(!watch.record(7, Some((0.2, 0.02)), true, t0));
         assert!(!watch.due(7, &stop(), t0 + Duration::from_secs(4)));
-        let t1 = t0 + Duration::from_secs(5);
-        assert!(watch.due(7, &stop(), t1));
-        assert!(!watch.record(7, false, t1));
-        assert!(!watch.record(7, true, t1 + Duration::from_secs(5)));
-        assert!(watch.record(7, true, t1 + Duration::from_secs(10)));
+        assert!(watch.due(7, &stop(), t0 + Duration::from_secs(5)));
+        // A wide interval starts the count again.
+        assert!(!watch.record(7, Some((0.2, 0.05)), false, t(5)));
+        assert!(!watch.record(7, Some((0.21, 0.02)), true, t(10)));
+        assert!(!watch.record(7, Some((0.2, 0.021)), true, t(15)));
+        // The same values again: the run wrote nothing new; it does not count.
+        assert!(!watch.record(7, Some((0.2, 0.021)), true, t(20)));
+        assert!(watch.record(7, Some((0.2, 0.019)), true, t(25)));
         watch.forget(7);
-        assert!(watch.due(7, &stop(), t1 + Duration::from_secs(10)));
+        assert!(watch.due(7, &stop(), t(25)));
     }
 
     #[test]

@@ -482,11 +482,14 @@ impl<E: Executor> Driver<'_, E> {
                     .await
                     .ok()
                     .flatten();
-            let reached = so_far
+            let seen = so_far
                 .as_ref()
-                .and_then(|results| convergence::relative_ci95(results, stop))
-                .filter(|&(_, relative)| relative < stop.relative_ci95);
-            if self.convergence.record(job.id, reached.is_some(), now) {
+                .and_then(|results| convergence::relative_ci95(results, stop));
+            let reached = seen.filter(|&(_, relative)| relative < stop.relative_ci95);
+            if self
+                .convergence
+                .record(job.id, seen, reached.is_some(), now)
+            {
                 let (value, relative) = reached.expect("recorded as narrow");
                 let reason = convergence::stop_reason(stop, value, relative);
                 match std::fs::write(run_dir.join(STOP_FILE), format!("{reason}\n")) {

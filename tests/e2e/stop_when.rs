@@ -1,5 +1,5 @@
 //! `stop_when:` (issue 15): a run is stopped cleanly once its discharge rate's 95 %
-//! interval is narrow enough, on the native kernel and on LIGGGHTS. The stopped runs
+//! interval is narrow enough (±8 %), on the native kernel and on LIGGGHTS. The stopped runs
 //! succeed, say why, discharge less than a full run would, and measure the rate a full
 //! run measures within the intervals.
 
@@ -7,7 +7,7 @@ use crate::support::{count, require_liggghts, solver_lock, text, Project};
 
 fn study(solver: &str, stop: bool) -> String {
     let stop_when = if stop {
-        "stop_when: {response: discharge_rate, ci95_below: 0.06, check_every: 1s}\n"
+        "stop_when: {response: discharge_rate, ci95_below: 0.08, check_every: 1s}\n"
     } else {
         ""
     };
@@ -19,9 +19,9 @@ executor: {{max_parallel: 2}}
 factors:
   - {{name: outlet_diameter, min: 0.020, max: 0.024, unit: m}}
 fixed:
-  n_particles: 4000
+  n_particles: 3000
   pour_rate: 0.2
-  fill_time: 0.55
+  fill_time: 0.45
   discharge_time: 3.0
 design: {{type: full_factorial, levels: 2}}
 seed: 3
@@ -71,7 +71,17 @@ fn stopped_runs_agree_with_full_ones(solver: &str) {
             "{}",
             stopped.4
         );
-        assert!(stopped.2 / stopped.1 < 0.06, "{stopped:?}");
+        // The stop was decided on the interval of the output so far; the stored one is
+        // recomputed on all the run wrote, a little later, and may differ.
+        let decided: f64 = stopped
+            .4
+            .split(" ± ")
+            .nth(1)
+            .and_then(|rest| rest.split(' ').next())
+            .and_then(|percent| percent.parse().ok())
+            .unwrap_or_else(|| panic!("no interval in `{}`", stopped.4));
+        assert!(decided < 8.0, "{}", stopped.4);
+        assert!(stopped.2 / stopped.1 < 0.12, "{stopped:?}");
         assert!(
             stopped.3 < 0.8 * full.3,
             "the stopped run discharged {} of a full run's {}",

@@ -105,7 +105,7 @@ pub struct CouplingFile {
 
 /// `stop_when:` of a study: a run is asked to stop cleanly once the 95 % confidence
 /// interval of `response` (its `<response>_ci95` half-width) is narrower than
-/// `ci95_below` times the response, at two checks in a row.
+/// `ci95_below` times the response, at three checks in a row, each on new output.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct StopWhenFile {

@@ -350,7 +350,7 @@ pub struct Study {
 
 /// `stop_when:`: a running design job is asked to stop cleanly (its run directory
 /// gets a [`STOP_FILE`]) once the 95 % interval of `response` is narrower than
-/// `relative_ci95` times the response at two checks in a row.
+/// `relative_ci95` times the response at three checks in a row, each on new output.
 #[derive(Debug, Clone, PartialEq)]
 pub struct StopWhen {
     /// The response whose interval decides.

@@ -132,6 +132,12 @@ impl Checker<'_> {
                 "`equipment: custom` needs a `case:` section: templates, command and responses (see docs/custom-decks.md)",
             ));
         };
+        if file.executor.cores_per_job.is_some() {
+            return Err(self.error(
+                "executor.cores_per_job",
+                "sets the cores of a built-in equipment's solver; a custom case sets its own with `case.cores` (and `{{ cores }}` in its command)",
+            ));
+        }
         if file.solver.is_some() {
             return Err(self.error(
                 "solver",
@@ -178,12 +184,6 @@ impl Checker<'_> {
             self.unique_in_run_dir(&field, &name, &outputs)?;
             outputs.push(name.clone());
             files.push(SideFile { name, bytes });
-        }
-        if file.executor.cores_per_job.is_some() {
-            return Err(self.error(
-                "executor.cores_per_job",
-                "sets the cores of a built-in equipment's solver; a custom case sets its own with `case.cores` (and `{{ cores }}` in its command)",
-            ));
         }
         let cores = case.cores.unwrap_or(1);
         if cores == 0 || cores > MAX_CORES_PER_JOB {

@@ -263,6 +263,26 @@ fn zero_cores_per_job_is_refused_with_line_and_column() {
 }
 
 #[test]
+fn a_custom_deck_is_told_to_set_its_cores_with_case_cores() {
+    let text = "\
+name: script
+equipment: custom
+case:
+  templates: [deck.sh.tera]
+  command: [sh, deck.sh]
+  responses: [{name: printed, regex: 'value = (\\S+)'}]
+executor: {cores_per_job: 2}
+factors:
+  - {name: x, min: 1, max: 3}
+design: {type: full_factorial, levels: 3}
+";
+    assert_eq!(
+        error(text),
+        "jobs/study.yaml:7:27: executor.cores_per_job: sets the cores of a built-in equipment's solver; a custom case sets its own with `case.cores` (and `{{ cores }}` in its command)"
+    );
+}
+
+#[test]
 fn slurm_options_are_checked_and_name_their_field() {
     let slurm = |line: &str| {
         error(&VALID.replace("  max_parallel: 2\n", &format!("  kind: slurm\n  {line}\n")))

@@ -543,7 +543,8 @@ pub struct ExecutorFile {
     /// Which executor.
     #[serde(default)]
     pub kind: ExecutorKind,
-    /// Jobs running at once; default: cores divided by the cores a job uses.
+    /// Jobs running at once; default: cores divided by the cores a job uses. Locally,
+    /// jobs also start only while their cores fit in the machine's.
     #[serde(default)]
     pub max_parallel: Option<usize>,
     /// Cores each DEM job uses (default 1): the native kernel's and YADE's threads,

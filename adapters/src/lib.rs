@@ -76,6 +76,11 @@ pub struct CommandSpec {
     pub env: BTreeMap<String, String>,
     /// Cores the run uses; executors use it to limit concurrency.
     pub cores: usize,
+    /// True when `cores` are MPI ranks the command starts itself (`mpirun -np N`), one
+    /// process each; false when they are threads of one process. A batch scheduler
+    /// asks for `N` tasks of one CPU for the first and one task of `N` CPUs for the
+    /// second.
+    pub mpi: bool,
     /// The file, relative to the run directory, holding the solver's own log.
     pub log_file: String,
 }

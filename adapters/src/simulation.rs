@@ -98,6 +98,7 @@ pub struct EquipmentOnSolver {
     pub solver: &'static DemSolver,
     template: TemplateText,
     user_template: bool,
+    cores: usize,
 }
 
 impl std::fmt::Debug for EquipmentOnSolver {
@@ -119,6 +120,7 @@ impl EquipmentOnSolver {
                 text: template.text.to_string(),
             },
             user_template: false,
+            cores: 1,
         })
     }
 
@@ -129,6 +131,21 @@ impl EquipmentOnSolver {
             user_template: true,
             ..self
         }
+    }
+
+    /// The same on `cores` cores per run (threads or MPI ranks, as the solver does it;
+    /// 0 counts as 1): the solver's command and, for LIGGGHTS, the deck's processor
+    /// grid follow.
+    pub fn with_cores(self, cores: usize) -> Self {
+        EquipmentOnSolver {
+            cores: cores.max(1),
+            ..self
+        }
+    }
+
+    /// Cores each run uses.
+    pub fn cores(&self) -> usize {
+        self.cores
     }
 
     /// The rendered deck's file name in the run directory: `<equipment>.<extension>`.
@@ -184,6 +201,7 @@ impl Simulation for EquipmentOnSolver {
             &template.text,
             &self.equipment.context(case),
         )?;
+        let text = (self.solver.decompose)(text, self.cores);
         Ok(vec![(self.deck_file(), text)])
     }
 
@@ -198,7 +216,7 @@ impl Simulation for EquipmentOnSolver {
     }
 
     fn command(&self) -> CommandSpec {
-        (self.solver.command)(&self.deck_file())
+        (self.solver.command)(&self.deck_file(), self.cores)
     }
 
     fn install_hint(&self) -> String {

@@ -38,8 +38,13 @@ pub struct DemSolver {
     pub install_hint: &'static str,
     /// The default template of every equipment it can simulate.
     pub templates: &'static [SolverTemplate],
-    /// The command that runs the deck named by the argument in the run directory.
-    pub command: fn(deck_file: &str) -> CommandSpec,
+    /// The command that runs the deck named by the first argument in the run directory
+    /// on as many cores as the second (threads or MPI ranks, as the program does it);
+    /// with 1 core, the command every study ran before `executor.cores_per_job`.
+    pub command: fn(deck_file: &str, cores: usize) -> CommandSpec,
+    /// The rendered deck made fit to run on this many cores (LIGGGHTS: its `processors`
+    /// grid); with 1 core the deck as rendered.
+    pub decompose: fn(deck: String, cores: usize) -> String,
     /// Reads what the program wrote into a run directory: crossings of `sensor`, loop
     /// time and work, series.
     pub parse:
@@ -58,7 +63,7 @@ impl DemSolver {
 
     /// The program the command runs, for the "is it installed?" check.
     pub fn program(&self) -> String {
-        (self.command)("deck").program
+        (self.command)("deck", 1).program
     }
 }
 
@@ -79,13 +84,25 @@ pub fn solver_names() -> Vec<&'static str> {
     SOLVERS.iter().map(|s| s.name).collect()
 }
 
-/// A command of `program` with `args`, one core, logging to `log_file`.
-pub(crate) fn one_core_command(program: String, args: &[&str], log_file: &str) -> CommandSpec {
+/// A command of `program` with `args` on `cores` cores, logging to `log_file`.
+pub(crate) fn solver_command(
+    program: String,
+    args: &[&str],
+    cores: usize,
+    log_file: &str,
+) -> CommandSpec {
     CommandSpec {
         program,
         args: args.iter().map(|s| s.to_string()).collect(),
         env: Default::default(),
-        cores: 1,
+        cores,
+        mpi: false,
         log_file: log_file.to_string(),
     }
+}
+
+/// [`DemSolver::decompose`] of a solver whose decks run on any number of cores as
+/// they are (threads are chosen on the command line).
+pub(crate) fn deck_as_rendered(deck: String, _cores: usize) -> String {
+    deck
 }

@@ -480,7 +480,7 @@ async fn compare(
         }
     }
     for solver in solvers.iter().filter(|s| s.name != NATIVE) {
-        let program = (solver.command)("probe").program;
+        let program = (solver.command)("probe", 1).program;
         if !program_exists(&program) {
             return Err(input_error(format!(
                 "{} is not installed (`{program}` is not on PATH): {}",
@@ -628,7 +628,14 @@ async fn submit(
         return Ok(exit_codes::SUCCESS);
     }
     let solver = study.simulation.solver_name();
-    let program = study.simulation.command().program;
+    let command = study.simulation.command();
+    let program = command.program;
+    if command.mpi && !program_exists(&program) {
+        return Err(input_error(format!(
+            "the study runs each {solver} job on {} MPI ranks (`executor.cores_per_job`) but `{program}` is not on PATH; install Open MPI (apt-get install -y openmpi-bin) or leave cores_per_job out, and submit again; nothing was written",
+            command.cores
+        )));
+    }
     if !program_exists(&program) {
         return Err(input_error(format!(
             "the {solver} solver `{program}` is not installed (not found on PATH); install it with `{}` and submit again; nothing was written",

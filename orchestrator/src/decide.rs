@@ -31,6 +31,10 @@ pub struct Budgets {
     /// True when a batch scheduler runs the jobs: it enforces the time limit itself,
     /// and its jobs outlive orch.
     pub batch: bool,
+    /// Cores the launched jobs may use together (local: this machine's); none when a
+    /// batch scheduler places the jobs. A job wider than the whole budget still runs,
+    /// alone, rather than never.
+    pub cores: Option<usize>,
 }
 
 /// Why an attempt failed; the driver adds what the run's output says
@@ -254,12 +258,16 @@ fn time_limit(job: &JobRow, budgets: &Budgets, now: f64) -> Vec<Action> {
 
 /// Settles pending stages whose upstream job failed or was cancelled (they follow it:
 /// nothing can feed them), then launches pending jobs in id order while slots are
-/// free. A stage job is ready only once its upstream job succeeded; a job in
+/// free and, under a core budget, while the cores of launched jobs (`cores_of` a job)
+/// fit in it. A stage job is ready only once its upstream job succeeded; a job in
 /// `terminating` (its last attempt may still be dying in its run directory) waits.
+/// Launching stops at the first ready job that does not fit, so a wide job is not
+/// passed over for ever by narrower ones behind it.
 pub fn settle_and_launch(
     jobs: &[JobRow],
     budgets: &Budgets,
     terminating: &HashSet<i64>,
+    cores_of: impl Fn(&JobRow) -> usize,
 ) -> Vec<Action> {
     let by_id: HashMap<i64, &JobRow> = jobs.iter().map(|j| (j.id, j)).collect();
     let upstream = |job: &JobRow| job.after_job_id.and_then(|id| by_id.get(&id).copied());
@@ -283,13 +291,26 @@ pub fn settle_and_launch(
     };
     let launched = jobs.iter().filter(|j| is_launched(j.state)).count();
     let free = budgets.max_parallel.saturating_sub(launched);
-    actions.extend(
-        jobs.iter()
-            .filter(|j| j.state == JobState::Pending && !terminating.contains(&j.id))
-            .filter(|j| ready(j))
-            .take(free)
-            .map(|j| Action::Launch { job: j.id }),
-    );
+    let mut used: usize = jobs
+        .iter()
+        .filter(|j| is_launched(j.state))
+        .map(&cores_of)
+        .sum();
+    let candidates = jobs
+        .iter()
+        .filter(|j| j.state == JobState::Pending && !terminating.contains(&j.id))
+        .filter(|j| ready(j))
+        .take(free);
+    for job in candidates {
+        let need = cores_of(job).max(1);
+        if let Some(budget) = budgets.cores {
+            if used > 0 && used + need > budget {
+                break;
+            }
+        }
+        used += need;
+        actions.push(Action::Launch { job: job.id });
+    }
     actions
 }
 

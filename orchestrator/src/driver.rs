@@ -112,6 +112,7 @@ async fn drive_with<E: Executor>(
         retries: study.executor.retries,
         time_limit: study.executor.time_limit,
         batch: executor.is_batch(),
+        cores: study.executor.core_budget.filter(|_| !executor.is_batch()),
     };
     let mut driver = Driver {
         store,
@@ -158,7 +159,9 @@ async fn drive_with<E: Executor>(
         let jobs = store.jobs(study_id).await?;
         driver.stop_converged(&jobs).await;
         let terminating: HashSet<i64> = driver.terminating.keys().copied().collect();
-        let actions = decide::settle_and_launch(&jobs, &driver.budgets, &terminating);
+        let actions = decide::settle_and_launch(&jobs, &driver.budgets, &terminating, |job| {
+            driver.cores_of(job)
+        });
         driver
             .apply(&jobs.iter().collect::<Vec<_>>(), actions)
             .await?;
@@ -265,6 +268,15 @@ impl<E: Executor> Driver<'_, E> {
         self.study.stage(kind).ok_or_else(|| {
             format!("the study file no longer has the `{kind}` stage this job belongs to")
         })
+    }
+
+    /// Cores a job uses, for the core budget: a stage's own (`cores` of OpenFOAM), else
+    /// the study's per design job (a coupled DEM job is one).
+    fn cores_of(&self, job: &JobRow) -> usize {
+        match job.stage_kind().filter(|&k| k != AIR_STAGE) {
+            Some(kind) => self.study.stage(kind).map_or(1, |stage| stage.cores()),
+            None => self.study.executor.cores_per_job,
+        }
     }
 
     /// Renders a job into its run directory and returns its command, or why not.

@@ -10,6 +10,7 @@ mod architecture;
 mod chute;
 mod compare;
 mod concurrency;
+mod cores;
 mod crash_resume;
 mod custom;
 mod faults;

@@ -198,6 +198,7 @@ impl Simulation for CustomDeck {
             args: self.command.words[1..].to_vec(),
             env: BTreeMap::new(),
             cores: self.command.cores,
+            mpi: false,
             log_file: self.command.log_file.clone(),
         }
     }

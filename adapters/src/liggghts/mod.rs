@@ -12,16 +12,18 @@
 //! seeds must be primes above 10000; the mass-flow file has no time column, so the
 //! sensor dump (whose time step gives the time) is what we read.
 
+mod grid;
 mod log;
 
 use std::path::Path;
 
 use orch_granular::CrossingDetector;
 
+pub use grid::{decompose, processor_grid};
 pub use log::{read_log, LogSummary};
 
 use crate::dump::read_dump;
-use crate::solver::{one_core_command, SolverTemplate};
+use crate::solver::{solver_command, SolverTemplate};
 use crate::{
     crossings_cover_sink, open_in_run_dir, Case, DemSolver, Observations, ParseError, SensorPlane,
 };
@@ -45,6 +47,7 @@ pub static SOLVER: DemSolver = DemSolver {
         },
     ],
     command,
+    decompose,
     parse,
     parse_running,
 };
@@ -54,14 +57,38 @@ pub const LOG_FILE: &str = "log.liggghts";
 /// The sensor dump, relative to the run directory.
 pub const SENSOR_DUMP: &str = "post/sensor.liggghts";
 
-/// `liggghts -in DECK -log log.liggghts -echo none`, one core.
-fn command(deck_file: &str) -> crate::CommandSpec {
-    one_core_command(
-        "liggghts".to_string(),
-        &["-in", deck_file, "-log", LOG_FILE, "-echo", "none"],
-        LOG_FILE,
-    )
+/// `liggghts -in DECK -log log.liggghts -echo none` on one core; on `N` > 1 cores
+/// `mpirun -np N liggghts …`, `N` MPI ranks (Debian's LIGGGHTS is built with Open MPI),
+/// the deck's box split by [`decompose`]. Open MPI refuses to run as root unless told
+/// it may (containers run as root), so the command's environment says so; inside a
+/// Slurm allocation `mpirun` takes its hosts from the allocation.
+fn command(deck_file: &str, cores: usize) -> crate::CommandSpec {
+    let liggghts = ["-in", deck_file, "-log", LOG_FILE, "-echo", "none"];
+    if cores <= 1 {
+        return solver_command("liggghts".to_string(), &liggghts, 1, LOG_FILE);
+    }
+    let ranks = cores.to_string();
+    let mut args = vec!["-np", &ranks, "liggghts"];
+    args.extend(liggghts);
+    let mut spec = solver_command(MPIRUN.to_string(), &args, cores, LOG_FILE);
+    spec.mpi = true;
+    for (key, value) in MPI_ENV {
+        spec.env.insert(key.to_string(), value.to_string());
+    }
+    spec
 }
+
+/// The MPI launcher of multi-core runs.
+pub const MPIRUN: &str = "mpirun";
+/// Environment of multi-core runs: Open MPI's consent to run as root (it refuses
+/// otherwise; harmless for other users), and to start more ranks than it counts slots
+/// (a container may show fewer cores than it may use; a study that asks for more ranks
+/// than the machine has runs slower rather than not at all).
+pub const MPI_ENV: [(&str, &str); 3] = [
+    ("OMPI_ALLOW_RUN_AS_ROOT", "1"),
+    ("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1"),
+    ("OMPI_MCA_rmaps_base_oversubscribe", "1"),
+];
 
 /// The log's loop time and work, and the crossings of the sensor plane from the
 /// sightings in the sensor dump (its time step times `timestep` gives the time).

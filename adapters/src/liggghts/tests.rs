@@ -174,3 +174,58 @@ fn a_running_dump_is_read_up_to_its_last_snapshot_which_may_be_half_written() {
     let observations = (SOLVER.parse_running)(&case_with(&[]), &sensor, dir.path()).unwrap();
     assert!(observations.crossings.is_empty());
 }
+
+#[test]
+fn command_on_one_core_runs_liggghts_itself() {
+    let command = on(&SOLVER).command();
+    assert_eq!(command.program, "liggghts");
+    assert_eq!(
+        command.args,
+        ["-in", "hopper.in", "-log", LOG_FILE, "-echo", "none"]
+    );
+    assert_eq!(command.cores, 1);
+    assert!(command.env.is_empty());
+}
+
+#[test]
+fn command_on_two_cores_runs_two_mpi_ranks_allowed_as_root() {
+    let command = on(&SOLVER).with_cores(2).command();
+    assert_eq!(command.program, "mpirun");
+    assert_eq!(
+        command.args,
+        [
+            "-np",
+            "2",
+            "liggghts",
+            "-in",
+            "hopper.in",
+            "-log",
+            LOG_FILE,
+            "-echo",
+            "none"
+        ]
+    );
+    assert_eq!(command.cores, 2);
+    assert_eq!(command.env["OMPI_ALLOW_RUN_AS_ROOT"], "1");
+    assert_eq!(command.env["OMPI_ALLOW_RUN_AS_ROOT_CONFIRM"], "1");
+}
+
+#[test]
+fn decks_on_more_cores_differ_only_in_their_processor_grid() {
+    let case = case_with(&[]);
+    let deck = |cores| {
+        let texts = on(&SOLVER).with_cores(cores).render_texts(&case).unwrap();
+        texts.into_iter().next().unwrap().1
+    };
+    let one = deck(1);
+    assert!(one.contains("\nprocessors      1 1 1\n"));
+    // The hopper's box is taller than wide: two ranks split it along z.
+    assert_eq!(
+        deck(2),
+        one.replace("processors      1 1 1", "processors      1 1 2")
+    );
+    assert_eq!(
+        deck(4),
+        one.replace("processors      1 1 1", "processors      1 2 2")
+    );
+}

@@ -17,7 +17,7 @@ use orch_granular::Crossing;
 
 pub use log::{read_log, NativeLog, THERMO_HEADER};
 
-use crate::solver::{one_core_command, SolverTemplate};
+use crate::solver::{deck_as_rendered, solver_command, SolverTemplate};
 use crate::{
     crossings_cover_sink, numbered_lines, open_in_run_dir, Case, CommandSpec, DemSolver,
     Observations, ParseError, SensorPlane, Series,
@@ -42,6 +42,7 @@ pub static SOLVER: DemSolver = DemSolver {
         },
     ],
     command,
+    decompose: deck_as_rendered,
     parse,
     parse_running,
 };
@@ -67,13 +68,16 @@ pub fn program_path() -> String {
         .unwrap_or_else(|| PROGRAM.to_string())
 }
 
-/// `orch-dem run CASE --log log.native`, one thread.
-fn command(case_file: &str) -> CommandSpec {
-    one_core_command(
-        program_path(),
-        &["run", case_file, "--log", LOG_FILE],
-        LOG_FILE,
-    )
+/// `orch-dem run CASE --log log.native`, one thread; on more cores
+/// `… --threads N`: the kernel's worker threads, whose number does not change a bit of
+/// the result (forces are summed per particle in a fixed order).
+fn command(case_file: &str, cores: usize) -> CommandSpec {
+    let threads = cores.to_string();
+    let mut args = vec!["run", case_file, "--log", LOG_FILE];
+    if cores > 1 {
+        args.extend(["--threads", &threads]);
+    }
+    solver_command(program_path(), &args, cores, LOG_FILE)
 }
 
 /// The log's loop time, work and kinetic energy, and the kernel's own crossings.

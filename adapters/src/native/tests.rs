@@ -308,3 +308,27 @@ fn a_running_crossings_file_is_read_up_to_its_last_complete_line() {
     // The log is not read: a running kernel has not written its summary yet.
     assert_eq!(observations.solver_loop_time_s, None);
 }
+
+#[test]
+fn command_runs_the_kernel_on_one_thread_unless_given_more_cores() {
+    use crate::Simulation;
+    let one = hopper::on(&SOLVER).command();
+    assert!(one.program.ends_with(PROGRAM), "{}", one.program);
+    assert_eq!(one.args, ["run", "hopper.toml", "--log", LOG_FILE]);
+    assert_eq!(one.cores, 1);
+    let two = hopper::on(&SOLVER).with_cores(2).command();
+    assert_eq!(
+        two.args,
+        ["run", "hopper.toml", "--log", LOG_FILE, "--threads", "2"]
+    );
+    assert_eq!(two.cores, 2);
+    assert_eq!(two.program, one.program);
+}
+
+#[test]
+fn the_case_file_does_not_depend_on_the_cores() {
+    use crate::Simulation;
+    let case = case_with(&[]);
+    let texts = |cores| hopper::on(&SOLVER).with_cores(cores).render_texts(&case);
+    assert_eq!(texts(1).unwrap(), texts(4).unwrap());
+}

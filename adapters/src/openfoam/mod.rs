@@ -452,6 +452,8 @@ pub fn command(case: &Case) -> CommandSpec {
         args: vec!["Allrun".to_string()],
         env: Default::default(),
         cores: case.get("cores").round() as usize,
+        // Its ranks are started by Allrun's own mpirun; submitted as one task.
+        mpi: false,
         log_file: LOG_FILE.to_string(),
     }
 }

@@ -11,7 +11,7 @@
 //! Facts this relies on (`shared/solvers/README.md`): `yade -n -x script.py` runs
 //! without a GUI and exits when the script ends, 0 on success and 1 on an uncaught
 //! exception; `NewtonIntegrator`'s default damping 0.2 must be set to 0; `-j 2` is not
-//! reproducible, so runs use one thread.
+//! reproducible, so runs use one thread unless `executor.cores_per_job` asks for more.
 
 mod log;
 
@@ -20,13 +20,13 @@ use std::path::Path;
 pub use log::{read_log, YadeSummary, SUMMARY_PREFIX};
 
 use crate::native::read_crossings;
-use crate::solver::{one_core_command, SolverTemplate};
+use crate::solver::{deck_as_rendered, solver_command, SolverTemplate};
 use crate::{
     crossings_cover_sink, open_in_run_dir, Case, CommandSpec, DemSolver, Observations, ParseError,
     SensorPlane,
 };
 
-/// YADE, run in batch on one thread.
+/// YADE, run in batch (one thread unless the study asks for more cores).
 pub static SOLVER: DemSolver = DemSolver {
     name: "yade",
     deck_extension: "py",
@@ -38,6 +38,7 @@ pub static SOLVER: DemSolver = DemSolver {
         text: include_str!("../../../templates/yade/hopper.py.tera"),
     }],
     command,
+    decompose: deck_as_rendered,
     parse,
     parse_running: crate::native::parse_running,
 };
@@ -47,11 +48,16 @@ pub const LOG_FILE: &str = "log.yade";
 /// The sensor's crossings, relative to the run directory.
 pub const CROSSINGS_FILE: &str = "post/crossings.csv";
 
-/// `yade -j 1 -n -x SCRIPT`: no GUI, exit when the script ends, one thread.
-fn command(script_file: &str) -> CommandSpec {
-    one_core_command(
+/// `yade -j N -n -x SCRIPT`: no GUI, exit when the script ends, N OpenMP threads.
+/// One thread (the default) is reproducible; `-j 2` and more are not (the order of
+/// YADE's parallel force sums changes from run to run), so a study that asks for more
+/// cores trades bit-for-bit replays for speed.
+fn command(script_file: &str, cores: usize) -> CommandSpec {
+    let threads = cores.to_string();
+    solver_command(
         "yade".to_string(),
-        &["-j", "1", "-n", "-x", script_file],
+        &["-j", &threads, "-n", "-x", script_file],
+        cores,
         LOG_FILE,
     )
 }

@@ -176,3 +176,12 @@ fn crossings_are_checked_against_the_mass_the_script_removed() {
         "{error}"
     );
 }
+
+#[test]
+fn command_on_two_cores_asks_yade_for_two_threads() {
+    let command = on(&SOLVER).with_cores(2).command();
+    assert_eq!(command.program, "yade");
+    assert_eq!(command.args, ["-j", "2", "-n", "-x", "hopper.py"]);
+    assert_eq!(command.cores, 2);
+    assert!(command.env.is_empty());
+}

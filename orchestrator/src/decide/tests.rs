@@ -50,7 +50,13 @@ fn budgets(max_parallel: usize, retries: u32) -> Budgets {
         retries,
         time_limit: Some(Duration::from_secs(60)),
         batch: false,
+        cores: None,
     }
+}
+
+/// Every job on one core.
+fn one_core(_: &JobRow) -> usize {
+    1
 }
 
 fn report(status: JobStatus) -> Report {
@@ -96,15 +102,20 @@ fn pending_jobs_are_launched_in_id_order_up_to_the_free_slots() {
     ];
     // Two of four slots are held (running, submitted).
     assert_eq!(
-        settle_and_launch(&jobs, &budgets(4, 0), &none()),
+        settle_and_launch(&jobs, &budgets(4, 0), &none(), one_core),
         vec![Action::Launch { job: 4 }, Action::Launch { job: 6 }]
     );
     assert_eq!(
-        launches(&settle_and_launch(&jobs, &budgets(3, 0), &none())),
+        launches(&settle_and_launch(&jobs, &budgets(3, 0), &none(), one_core)),
         vec![4]
     );
     assert_eq!(
-        launches(&settle_and_launch(&jobs, &budgets(10, 0), &none())),
+        launches(&settle_and_launch(
+            &jobs,
+            &budgets(10, 0),
+            &none(),
+            one_core
+        )),
         vec![4, 6, 7]
     );
 }
@@ -113,10 +124,98 @@ fn pending_jobs_are_launched_in_id_order_up_to_the_free_slots() {
 fn no_job_is_launched_when_every_slot_is_held_or_over_held() {
     use JobState::*;
     let jobs = vec![job(1, Running), job(2, Submitted), job(3, Pending)];
-    assert!(settle_and_launch(&jobs, &budgets(2, 0), &none()).is_empty());
+    assert!(settle_and_launch(&jobs, &budgets(2, 0), &none(), one_core).is_empty());
     // A smaller max_parallel after a resume: more are running than allowed.
-    assert!(settle_and_launch(&jobs, &budgets(1, 0), &none()).is_empty());
-    assert!(settle_and_launch(&jobs, &budgets(0, 0), &none()).is_empty());
+    assert!(settle_and_launch(&jobs, &budgets(1, 0), &none(), one_core).is_empty());
+    assert!(settle_and_launch(&jobs, &budgets(0, 0), &none(), one_core).is_empty());
+}
+
+/// Design jobs on 2 cores each, `cfd` stage jobs on 1.
+fn two_core_design_jobs(job: &JobRow) -> usize {
+    if job.stage == DESIGN_STAGE {
+        2
+    } else {
+        1
+    }
+}
+
+fn cores(max_parallel: usize, cores: usize) -> Budgets {
+    Budgets {
+        cores: Some(cores),
+        ..budgets(max_parallel, 0)
+    }
+}
+
+#[test]
+fn two_core_jobs_on_two_cores_run_one_at_a_time() {
+    use JobState::*;
+    let pending = vec![job(1, Pending), job(2, Pending), job(3, Pending)];
+    // max_parallel allows three, the cores one.
+    assert_eq!(
+        launches(&settle_and_launch(
+            &pending,
+            &cores(3, 2),
+            &none(),
+            two_core_design_jobs
+        )),
+        vec![1]
+    );
+    let one_running = vec![job(1, Running), job(2, Pending)];
+    assert!(
+        settle_and_launch(&one_running, &cores(3, 2), &none(), two_core_design_jobs).is_empty()
+    );
+    // On four cores two of them fit; on one core a 2-core job still runs, alone.
+    assert_eq!(
+        launches(&settle_and_launch(
+            &pending,
+            &cores(3, 4),
+            &none(),
+            two_core_design_jobs
+        )),
+        vec![1, 2]
+    );
+    assert_eq!(
+        launches(&settle_and_launch(
+            &pending,
+            &cores(3, 1),
+            &none(),
+            two_core_design_jobs
+        )),
+        vec![1]
+    );
+    // Without a core budget (Slurm) only max_parallel counts.
+    assert_eq!(
+        launches(&settle_and_launch(
+            &pending,
+            &budgets(3, 0),
+            &none(),
+            two_core_design_jobs
+        )),
+        vec![1, 2, 3]
+    );
+}
+
+#[test]
+fn a_one_core_stage_fills_the_core_a_two_core_job_leaves_free() {
+    use JobState::*;
+    // On 3 cores: job 1 (2 cores) runs, job 2 succeeded, its 1-core stage 3 fits;
+    // the 2-core job 4 behind it does not, and nothing jumps ahead of it.
+    let jobs = vec![
+        job(1, Running),
+        job(2, Succeeded),
+        stage(3, Pending, 2),
+        job(4, Pending),
+        stage(5, Pending, 2),
+    ];
+    assert_eq!(
+        launches(&settle_and_launch(
+            &jobs,
+            &cores(8, 3),
+            &none(),
+            two_core_design_jobs
+        )),
+        vec![3]
+    );
 }
 
 #[test]
@@ -130,7 +229,7 @@ fn rendered_final_and_pending_jobs_hold_no_slot() {
         job(5, Pending),
     ];
     assert_eq!(
-        launches(&settle_and_launch(&jobs, &budgets(1, 0), &none())),
+        launches(&settle_and_launch(&jobs, &budgets(1, 0), &none(), one_core)),
         vec![5]
     );
 }
@@ -140,7 +239,12 @@ fn a_job_whose_last_attempt_is_still_being_terminated_waits() {
     let jobs = vec![job(1, JobState::Pending), job(2, JobState::Pending)];
     let terminating = HashSet::from([1]);
     assert_eq!(
-        launches(&settle_and_launch(&jobs, &budgets(1, 0), &terminating)),
+        launches(&settle_and_launch(
+            &jobs,
+            &budgets(1, 0),
+            &terminating,
+            one_core
+        )),
         vec![2]
     );
 }
@@ -150,7 +254,7 @@ fn a_stage_job_is_launched_only_after_its_upstream_job_succeeded() {
     use JobState::*;
     for upstream in [Pending, Rendered, Submitted, Running] {
         let jobs = vec![job(1, upstream), stage(2, Pending, 1)];
-        let actions = settle_and_launch(&jobs, &budgets(4, 0), &none());
+        let actions = settle_and_launch(&jobs, &budgets(4, 0), &none(), one_core);
         assert!(
             !launches(&actions).contains(&2),
             "stage launched while its upstream is {upstream}: {actions:?}"
@@ -162,7 +266,7 @@ fn a_stage_job_is_launched_only_after_its_upstream_job_succeeded() {
     }
     let jobs = vec![job(1, Succeeded), stage(2, Pending, 1), job(3, Pending)];
     assert_eq!(
-        launches(&settle_and_launch(&jobs, &budgets(4, 0), &none())),
+        launches(&settle_and_launch(&jobs, &budgets(4, 0), &none(), one_core)),
         vec![2, 3]
     );
 }
@@ -170,7 +274,7 @@ fn a_stage_job_is_launched_only_after_its_upstream_job_succeeded() {
 #[test]
 fn a_stage_whose_upstream_is_unknown_is_neither_launched_nor_settled() {
     let jobs = vec![stage(2, JobState::Pending, 99)];
-    assert!(settle_and_launch(&jobs, &budgets(4, 0), &none()).is_empty());
+    assert!(settle_and_launch(&jobs, &budgets(4, 0), &none(), one_core).is_empty());
 }
 
 // ---- orphaned stages ----
@@ -179,7 +283,7 @@ fn a_stage_whose_upstream_is_unknown_is_neither_launched_nor_settled() {
 fn a_stage_whose_upstream_failed_fails_and_is_not_launched() {
     let jobs = vec![job(1, JobState::Failed), stage(2, JobState::Pending, 1)];
     assert_eq!(
-        settle_and_launch(&jobs, &budgets(4, 0), &none()),
+        settle_and_launch(&jobs, &budgets(4, 0), &none(), one_core),
         vec![Action::FailOrphan {
             job: 2,
             upstream: "p001r0".into()
@@ -191,7 +295,7 @@ fn a_stage_whose_upstream_failed_fails_and_is_not_launched() {
 fn a_stage_whose_upstream_was_cancelled_is_cancelled_and_not_launched() {
     let jobs = vec![job(1, JobState::Cancelled), stage(2, JobState::Pending, 1)];
     assert_eq!(
-        settle_and_launch(&jobs, &budgets(4, 0), &none()),
+        settle_and_launch(&jobs, &budgets(4, 0), &none(), one_core),
         vec![Action::Cancel {
             job: 2,
             cause: CancelCause::Upstream("p001r0".into())
@@ -212,7 +316,7 @@ fn orphans_are_settled_before_launches_and_final_stages_are_left_alone() {
         stage(7, Pending, 6),
     ];
     assert_eq!(
-        settle_and_launch(&jobs, &budgets(4, 0), &none()),
+        settle_and_launch(&jobs, &budgets(4, 0), &none(), one_core),
         vec![
             Action::Cancel {
                 job: 4,
@@ -646,7 +750,7 @@ proptest! {
     /// free slots, and as many as both allow; nothing else but orphans is touched.
     #[test]
     fn launches_respect_slots_order_and_upstreams(jobs in any_jobs(), max_parallel in 0..8_usize) {
-        let actions = settle_and_launch(&jobs, &budgets(max_parallel, 0), &none());
+        let actions = settle_and_launch(&jobs, &budgets(max_parallel, 0), &none(), one_core);
         let state = |id: i64| jobs[id as usize - 1].state;
         let launched = launches(&actions);
         let held = jobs.iter().filter(|j| is_launched(j.state)).count();

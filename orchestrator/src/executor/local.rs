@@ -227,6 +227,7 @@ mod tests {
                 args: vec!["-c".into(), script.into()],
                 env: Default::default(),
                 cores: 1,
+                mpi: false,
                 log_file: STDOUT_FILE.into(),
             },
         }

@@ -19,6 +19,9 @@ use super::*;
 /// The equipment name of a user's own deck.
 pub const EQUIPMENT: &str = orch_adapters::custom::EQUIPMENT;
 
+/// The most cores one job may ask for (`executor.cores_per_job`, `case.cores`).
+pub const MAX_CORES_PER_JOB: usize = 4096;
+
 /// The last component of a relative path: what a template or side file is called in
 /// the run directory.
 fn file_name(relative: &str) -> &str {
@@ -28,6 +31,18 @@ fn file_name(relative: &str) -> &str {
 impl Checker<'_> {
     /// A built-in equipment on the study's solver, with the stored, the user's or the
     /// solver's default template.
+    /// `executor.cores_per_job`: 1 to [`MAX_CORES_PER_JOB`], 1 when not given.
+    fn cores_per_job(&self, executor: &super::file::ExecutorFile) -> Result<usize, StudyError> {
+        match executor.cores_per_job {
+            None => Ok(1),
+            Some(n @ 1..=MAX_CORES_PER_JOB) => Ok(n),
+            Some(n) => Err(self.error(
+                "executor.cores_per_job",
+                format!("expected 1 to {MAX_CORES_PER_JOB} cores (threads or MPI ranks of one job), got {n}; leave it out for one core"),
+            )),
+        }
+    }
+
     pub(super) fn builtin_simulation(
         &self,
         file: &StudyFile,
@@ -83,6 +98,7 @@ impl Checker<'_> {
                 ),
             )
         })?;
+        let simulation = simulation.with_cores(self.cores_per_job(&file.executor)?);
         let stored = self.stored.as_ref().and_then(|s| s.template.clone());
         Ok(match (stored, &file.template) {
             (Some(stored), Some(_)) => simulation.with_template(stored),
@@ -116,6 +132,12 @@ impl Checker<'_> {
                 "`equipment: custom` needs a `case:` section: templates, command and responses (see docs/custom-decks.md)",
             ));
         };
+        if file.executor.cores_per_job.is_some() {
+            return Err(self.error(
+                "executor.cores_per_job",
+                "sets the cores of a built-in equipment's solver; a custom case sets its own with `case.cores` (and `{{ cores }}` in its command)",
+            ));
+        }
         if file.solver.is_some() {
             return Err(self.error(
                 "solver",
@@ -164,10 +186,10 @@ impl Checker<'_> {
             files.push(SideFile { name, bytes });
         }
         let cores = case.cores.unwrap_or(1);
-        if cores == 0 || cores > 4096 {
+        if cores == 0 || cores > MAX_CORES_PER_JOB {
             return Err(self.error(
                 "case.cores",
-                format!("expected 1 to 4096 cores, got {cores}"),
+                format!("expected 1 to {MAX_CORES_PER_JOB} cores, got {cores}"),
             ));
         }
         let command = self.command(&case.command, cores)?;

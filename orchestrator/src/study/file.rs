@@ -544,9 +544,14 @@ pub struct ExecutorFile {
     /// Which executor.
     #[serde(default)]
     pub kind: ExecutorKind,
-    /// Jobs running at once; default: cores divided by the cores a job uses.
+    /// Jobs running at once; default: cores divided by the cores a job uses. Locally,
+    /// jobs also start only while their cores fit in the machine's.
     #[serde(default)]
     pub max_parallel: Option<usize>,
+    /// Cores each DEM job uses (default 1): the native kernel's and YADE's threads,
+    /// LIGGGHTS's MPI ranks. A user's own deck sets its cores with `case.cores`.
+    #[serde(default)]
+    pub cores_per_job: Option<usize>,
     /// Wall-time limit per job attempt: seconds, or text such as `90s`, `10min`, `2h`.
     #[serde(default)]
     pub time_limit: Option<TimeLimit>,

@@ -98,6 +98,13 @@ pub struct ExecutorConfig {
     pub retries: u32,
     /// Submission settings when `kind` is Slurm.
     pub slurm: Option<SlurmSettings>,
+    /// Cores each design job uses (`cores_per_job`; a custom deck's `case.cores`).
+    pub cores_per_job: usize,
+    /// Cores the running jobs may use together: this machine's
+    /// ([`std::thread::available_parallelism`]) for the local executor, so that two
+    /// 2-core jobs do not run at once on 2 cores; none on Slurm, which places jobs on
+    /// its nodes itself.
+    pub core_budget: Option<usize>,
 }
 
 /// The template a study renders: its name in messages (the solver's default path or
@@ -411,6 +418,16 @@ impl std::fmt::Debug for StageConfig {
 }
 
 impl StageConfig {
+    /// Cores one of its jobs uses: its `cores` parameter (OpenFOAM's ranks), else 1.
+    pub fn cores(&self) -> usize {
+        let cores = self.case().get("cores");
+        if cores.is_finite() && cores >= 1.0 {
+            cores.round() as usize
+        } else {
+            1
+        }
+    }
+
     /// The stage's case: defaults with the fixed values applied.
     pub fn case(&self) -> Case {
         let mut parameters = ResolvedParameters::defaults(self.stage.parameters());
@@ -1852,6 +1869,8 @@ impl Checker<'_> {
             time_limit: executor.time_limit.map(|t| t.0),
             retries: executor.retries,
             slurm,
+            cores_per_job: per_job,
+            core_budget: (executor.kind == ExecutorKind::Local).then_some(cores),
         })
     }
 

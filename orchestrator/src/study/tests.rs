@@ -59,7 +59,7 @@ fn unknown_key_is_refused_with_line_and_column() {
     let text = VALID.replace("  retries: 1\n", "  retries: 1\n  retrys: 2\n");
     assert_eq!(
         error(&text),
-        "jobs/study.yaml:7:3: executor.retrys: unknown field `retrys`, expected one of `kind`, `max_parallel`, `time_limit`, `retries`, `partition`, `cpus_per_task`, `mem`, `account`, `qos`, `extra_sbatch`, `max_submitted`, `poll_interval`"
+        "jobs/study.yaml:7:3: executor.retrys: unknown field `retrys`, expected one of `kind`, `max_parallel`, `cores_per_job`, `time_limit`, `retries`, `partition`, `cpus_per_task`, `mem`, `account`, `qos`, `extra_sbatch`, `max_submitted`, `poll_interval`"
     );
 }
 
@@ -223,6 +223,62 @@ fn a_slurm_executor_takes_its_submission_options() {
     assert_eq!(
         study.executor.slurm.unwrap().poll_interval,
         Duration::from_secs(5)
+    );
+}
+
+#[test]
+fn cores_per_job_sets_the_solver_command_and_the_default_parallelism() {
+    let machine = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let text = VALID.replace("  max_parallel: 2\n", "  cores_per_job: 2\n");
+    let study = load(&text).unwrap();
+    assert_eq!(study.executor.cores_per_job, 2);
+    assert_eq!(study.executor.core_budget, Some(machine));
+    assert_eq!(study.executor.max_parallel, (machine / 2).max(1));
+    let command = study.simulation.command();
+    assert_eq!((command.program.as_str(), command.cores), ("mpirun", 2));
+    // Left out: one core, the command of every study before the key existed.
+    let study = load(VALID).unwrap();
+    assert_eq!(study.executor.cores_per_job, 1);
+    assert_eq!(study.simulation.command().program, "liggghts");
+    // Slurm places jobs itself: no core budget.
+    let text = VALID.replace("  max_parallel: 2\n", "  kind: slurm\n  cores_per_job: 4\n");
+    let study = load(&text).unwrap();
+    assert_eq!(study.executor.core_budget, None);
+    assert_eq!(study.simulation.command().cores, 4);
+}
+
+#[test]
+fn zero_cores_per_job_is_refused_with_line_and_column() {
+    let text = VALID.replace("  max_parallel: 2\n", "  cores_per_job: 0\n");
+    assert_eq!(
+        error(&text),
+        "jobs/study.yaml:4:18: executor.cores_per_job: expected 1 to 4096 cores (threads or MPI ranks of one job), got 0; leave it out for one core"
+    );
+    let text = VALID.replace("  max_parallel: 2\n", "  cores_per_job: -2\n");
+    assert!(
+        error(&text).starts_with("jobs/study.yaml:4:"),
+        "{}",
+        error(&text)
+    );
+}
+
+#[test]
+fn a_custom_deck_is_told_to_set_its_cores_with_case_cores() {
+    let text = "\
+name: script
+equipment: custom
+case:
+  templates: [deck.sh.tera]
+  command: [sh, deck.sh]
+  responses: [{name: printed, regex: 'value = (\\S+)'}]
+executor: {cores_per_job: 2}
+factors:
+  - {name: x, min: 1, max: 3}
+design: {type: full_factorial, levels: 3}
+";
+    assert_eq!(
+        error(text),
+        "jobs/study.yaml:7:27: executor.cores_per_job: sets the cores of a built-in equipment's solver; a custom case sets its own with `case.cores` (and `{{ cores }}` in its command)"
     );
 }
 

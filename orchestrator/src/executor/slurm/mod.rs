@@ -32,7 +32,8 @@ pub const DEFAULT_MAX_SUBMITTED: usize = 500;
 pub struct SlurmSettings {
     /// `--partition` (none: the cluster's default).
     pub partition: Option<String>,
-    /// `--cpus-per-task` (none: the cores the solver's command asks for).
+    /// `--cpus-per-task` (none: the cores the solver's command asks for when they are
+    /// threads, 1 when they are MPI ranks, each then a task of its own).
     pub cpus_per_task: Option<u32>,
     /// `--mem`, as sbatch writes it (`2G`).
     pub mem: Option<String>,

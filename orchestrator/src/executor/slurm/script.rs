@@ -115,6 +115,21 @@ pub fn sbatch_quote(option: &str) -> String {
     }
 }
 
+/// `(--ntasks, --cpus-per-task)` of a job: a threaded solver (the native kernel, YADE)
+/// is one task on as many CPUs as its command's cores; an MPI solver (LIGGGHTS on
+/// several ranks, whose `mpirun` starts its ranks inside the allocation) is one task
+/// per rank on one CPU each. `executor.cpus_per_task` overrides the CPUs per task.
+/// Both on one node: orch's jobs are small enough, and `mpirun` then needs no hosts.
+pub fn tasks_and_cpus(spec: &LaunchSpec, settings: &SlurmSettings) -> (usize, u32) {
+    let cores = spec.command.cores.max(1);
+    let (tasks, cpus) = if spec.command.mpi {
+        (cores, 1)
+    } else {
+        (1, cores as u32)
+    };
+    (tasks, settings.cpus_per_task.unwrap_or(cpus))
+}
+
 /// The batch script for `spec`, or why none can be written: every value that reaches
 /// it is refused when it holds a control character and quoted otherwise (shell
 /// quoting in the script's commands, sbatch's quoting in `#SBATCH` lines).
@@ -138,16 +153,14 @@ pub fn batch_script(spec: &LaunchSpec, settings: &SlurmSettings) -> Result<Strin
             COMMAND_REMEDY,
         )?;
     }
-    let cpus = settings
-        .cpus_per_task
-        .unwrap_or(spec.command.cores.max(1) as u32);
+    let (tasks, cpus) = tasks_and_cpus(spec, settings);
     let mut options = vec![
         format!("--job-name={}", slurm_job_name(&spec.name)),
         format!("--chdir={run_dir}"),
         format!("--output={SLURM_OUTPUT}"),
         "--open-mode=append".to_string(),
         "--nodes=1".to_string(),
-        "--ntasks=1".to_string(),
+        format!("--ntasks={tasks}"),
         format!("--cpus-per-task={cpus}"),
         // orch decides about another attempt (its retry budget), not Slurm.
         "--no-requeue".to_string(),
@@ -228,6 +241,7 @@ mod tests {
                 ],
                 env: BTreeMap::from([("OMP_NUM_THREADS".to_string(), "1".to_string())]),
                 cores: 1,
+                mpi: false,
                 log_file: "log.native".into(),
             },
         }
@@ -255,6 +269,57 @@ mod tests {
         for absent in ["--time", "--partition", "--mem", "--account", "--qos"] {
             assert!(!script.contains(absent), "{absent} in {script}");
         }
+    }
+
+    #[test]
+    fn threaded_jobs_are_one_task_on_many_cpus_and_mpi_jobs_one_task_per_rank() {
+        let defaults = SlurmSettings::default();
+        let mut threads = spec();
+        threads.command.cores = 2;
+        threads
+            .command
+            .args
+            .extend(["--threads".into(), "2".into()]);
+        let script = batch_script(&threads, &defaults).unwrap();
+        assert!(
+            script.contains("#SBATCH --ntasks=1\n#SBATCH --cpus-per-task=2\n"),
+            "{script}"
+        );
+
+        let mpi = LaunchSpec {
+            command: CommandSpec {
+                program: "mpirun".into(),
+                args: ["-np", "2", "liggghts", "-in", "hopper.in"]
+                    .map(String::from)
+                    .to_vec(),
+                env: BTreeMap::from([("OMPI_ALLOW_RUN_AS_ROOT".to_string(), "1".to_string())]),
+                cores: 2,
+                mpi: true,
+                log_file: "log.liggghts".into(),
+            },
+            ..spec()
+        };
+        let script = batch_script(&mpi, &defaults).unwrap();
+        assert!(
+            script.contains("#SBATCH --nodes=1\n#SBATCH --ntasks=2\n#SBATCH --cpus-per-task=1\n"),
+            "{script}"
+        );
+        assert!(
+            script.contains("export OMPI_ALLOW_RUN_AS_ROOT=1\n"),
+            "{script}"
+        );
+        assert!(
+            script.contains("mpirun -np 2 liggghts -in hopper.in > stdout.txt"),
+            "{script}"
+        );
+        // The study's cpus_per_task still decides the CPUs of each task.
+        let four = SlurmSettings {
+            cpus_per_task: Some(4),
+            ..SlurmSettings::default()
+        };
+        assert_eq!(tasks_and_cpus(&mpi, &four), (2, 4));
+        assert_eq!(tasks_and_cpus(&threads, &four), (1, 4));
+        assert_eq!(tasks_and_cpus(&spec(), &defaults), (1, 1));
     }
 
     #[test]

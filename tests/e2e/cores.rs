@@ -1,0 +1,143 @@
+//! One run on many cores (`executor.cores_per_job`): LIGGGHTS on two MPI ranks and the
+//! native kernel on two threads, against the same studies on one core.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use serde_json::Value;
+
+use crate::support::{require_liggghts, solver_lock, text, Project};
+
+/// A two-point hopper study on `solver` with `cores` per job, one job at a time (so
+/// that the two studies' wall times compare run for run).
+fn study(solver: &str, cores: usize, particles: u32) -> String {
+    format!(
+        "name: {solver}-{cores}\n\
+         solver: {solver}\n\
+         executor: {{max_parallel: 1, cores_per_job: {cores}, time_limit: 5min, retries: 0}}\n\
+         factors:\n  - {{name: outlet_diameter, min: 0.024, max: 0.028, unit: m}}\n\
+         fixed: {{n_particles: {particles}, fill_time: 0.2, discharge_time: 0.6}}\n\
+         design: {{type: full_factorial, levels: 2}}\n\
+         seed: 7\n\
+         responses: [discharge_rate]\n"
+    )
+}
+
+/// Runs `study(solver, cores)` to the end; returns its status and the wall time, s.
+fn run(project: &Project, solver: &str, cores: usize, particles: u32) -> (Value, f64) {
+    let name = format!("{solver}-{cores}");
+    let file = project.write(&format!("{name}.yaml"), &study(solver, cores, particles));
+    let started = Instant::now();
+    let output = project.run(&["submit", file.to_str().unwrap()]);
+    let wall = started.elapsed().as_secs_f64();
+    let stderr = text(&output.stderr);
+    assert_eq!(output.status.code(), Some(0), "{stderr}");
+    assert!(
+        stderr.contains("finished: 2 succeeded, 0 failed"),
+        "{stderr}"
+    );
+    (project.status(&name), wall)
+}
+
+/// `(job name, responses)` of every job, by name.
+fn responses(status: &Value) -> Vec<(String, serde_json::Map<String, Value>)> {
+    let mut jobs: Vec<_> = status["jobs"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|job| {
+            let name = job["name"].as_str().unwrap().to_string();
+            (name, job["responses"].as_object().unwrap().clone())
+        })
+        .collect();
+    jobs.sort_by(|a, b| a.0.cmp(&b.0));
+    jobs
+}
+
+/// The run directories of a study's jobs.
+fn run_dirs(project: &Project, study: &str) -> Vec<PathBuf> {
+    project
+        .query(&format!(
+            "SELECT j.run_dir FROM jobs j JOIN studies s ON s.id = j.study_id WHERE s.name = '{study}' ORDER BY j.id"
+        ))
+        .into_iter()
+        .map(|row| PathBuf::from(&row[0]))
+        .collect()
+}
+
+#[test]
+fn liggghts_on_two_mpi_ranks_discharges_like_one_rank() {
+    if !require_liggghts() {
+        return;
+    }
+    let _lock = solver_lock();
+    let project = Project::new();
+    let (one, one_wall) = run(&project, "liggghts", 1, 1000);
+    let (two, two_wall) = run(&project, "liggghts", 2, 1000);
+    eprintln!(
+        "LIGGGHTS, 2 runs of 1000 particles: 1 rank {one_wall:.1} s, 2 ranks {two_wall:.1} s wall"
+    );
+
+    for dir in run_dirs(&project, "liggghts-2") {
+        let log = std::fs::read_to_string(dir.join("log.liggghts")).unwrap();
+        assert!(log.contains("1 by 1 by 2 MPI processor grid"), "{log}");
+        assert!(log.contains(" on 2 procs for "), "{log}");
+        let deck = std::fs::read_to_string(dir.join("hopper.in")).unwrap();
+        assert!(deck.contains("\nprocessors      1 1 2\n"), "{deck}");
+    }
+    for dir in run_dirs(&project, "liggghts-1") {
+        let log = std::fs::read_to_string(dir.join("log.liggghts")).unwrap();
+        assert!(log.contains(" on 1 procs for "), "{log}");
+    }
+    for ((name, r1), (_, r2)) in responses(&one).iter().zip(responses(&two)) {
+        let (a, b) = (
+            r1["discharge_rate"].as_f64().unwrap(),
+            r2["discharge_rate"].as_f64().unwrap(),
+        );
+        let loop_time =
+            |r: &serde_json::Map<String, Value>| r["solver_loop_time"].as_f64().unwrap();
+        eprintln!(
+            "{name}: discharge_rate 1 rank {a:.4} kg/s, 2 ranks {b:.4} kg/s ({:+.1} %); loop time {:.1} s vs {:.1} s",
+            100.0 * (b / a - 1.0),
+            loop_time(r1),
+            loop_time(&r2)
+        );
+        assert!((b / a - 1.0).abs() <= 0.10, "{name}: {a} vs {b} kg/s");
+    }
+}
+
+#[test]
+fn the_native_kernel_on_two_threads_gives_the_responses_of_one_bit_for_bit() {
+    let _lock = solver_lock();
+    let project = Project::new();
+    let (one, one_wall) = run(&project, "native", 1, 600);
+    let (two, two_wall) = run(&project, "native", 2, 600);
+    eprintln!(
+        "native, 2 runs of 600 particles: 1 thread {one_wall:.1} s, 2 threads {two_wall:.1} s wall"
+    );
+    let (one, two) = (responses(&one), responses(&two));
+    assert_eq!(one.len(), 2);
+    for ((name, r1), (_, r2)) in one.iter().zip(&two) {
+        let physical = |r: &serde_json::Map<String, Value>| {
+            let mut r = r.clone();
+            r.retain(|k, _| !k.starts_with("solver_"));
+            r
+        };
+        assert!(physical(r1).contains_key("discharge_rate"), "{r1:?}");
+        assert_eq!(physical(r1), physical(r2), "{name}");
+        eprintln!(
+            "{name}: loop time 1 thread {:.2} s, 2 threads {:.2} s",
+            r1["solver_loop_time"].as_f64().unwrap(),
+            r2["solver_loop_time"].as_f64().unwrap()
+        );
+    }
+    for (study, threads) in [("native-1", 1), ("native-2", 2)] {
+        for dir in run_dirs(&project, study) {
+            let log = std::fs::read_to_string(dir.join("log.native")).unwrap();
+            assert!(
+                log.contains(&format!(" on {threads} threads for ")),
+                "{log}"
+            );
+        }
+    }
+}

@@ -821,17 +821,14 @@ impl Checker<'_> {
         })
     }
 
-    /// `coupling:` checked: the `cfd` stage is there, the response is the DEM's, and
-    /// the simulation can run in the CFD stage's air (its template renders the first
-    /// design point with `air_field` = 1).
+    /// `coupling:` checked: the `cfd` stage is there, the response is the DEM's and
+    /// the equipment has the air parameters ([`Study::check_coupled_case`] then renders
+    /// a design point in moving air).
     fn coupling(
         &self,
         coupling: &file::CouplingFile,
         simulation: &dyn Simulation,
         stages: &[StageConfig],
-        points: &[DesignPoint],
-        fixed: &BTreeMap<String, f64>,
-        factors: &[Factor],
     ) -> Result<Coupling, StudyError> {
         if !stages
             .iter()
@@ -898,34 +895,6 @@ impl Checker<'_> {
                     crate::coupling::AIR_PARAMETERS.join(", ")
                 ),
             ));
-        }
-        if let Some(point) = points.first() {
-            let mut parameters = ResolvedParameters::defaults(specs);
-            for (name, value) in fixed {
-                parameters.set(name, *value);
-            }
-            for (factor, value) in factors.iter().zip(&point.natural) {
-                parameters.set(&factor.name, *value);
-            }
-            let still = Case {
-                parameters,
-                text: Default::default(),
-                seed: 1,
-            };
-            let moving =
-                crate::coupling::in_moving_air(&still, &crate::coupling::AirProperties::default());
-            if let Err(e) = simulation
-                .check(&moving)
-                .and_then(|()| simulation.render_texts(&moving).map(drop))
-            {
-                return Err(self.error(
-                    "coupling",
-                    format!(
-                        "the {} solver cannot run the DEM in the CFD stage's air: {e}",
-                        simulation.solver_name()
-                    ),
-                ));
-            }
         }
         Ok(Coupling {
             iterations: coupling.iterations,
@@ -1420,14 +1389,7 @@ impl Checker<'_> {
         }
         let coupling = match &file.coupling {
             None => None,
-            Some(coupling) => Some(self.coupling(
-                coupling,
-                simulation.as_ref(),
-                &stages,
-                &points,
-                &fixed,
-                &factors,
-            )?),
+            Some(coupling) => Some(self.coupling(coupling, simulation.as_ref(), &stages)?),
         };
         let stop_when = match file.stop_when {
             None => None,
@@ -1505,7 +1467,33 @@ impl Checker<'_> {
         if deck.is_some() {
             self.every_factor_is_used(&study)?;
         }
+        self.check_coupled_case(&study)?;
         Ok(study)
+    }
+
+    /// With `coupling:`, the simulation must run the first design point in the CFD
+    /// stage's air (`air_field` = 1): its checks pass and its template renders.
+    fn check_coupled_case(&self, study: &Study) -> Result<(), StudyError> {
+        let (Some(_), Some(point)) = (&study.coupling, study.points.first()) else {
+            return Ok(());
+        };
+        let moving = crate::coupling::in_moving_air(
+            &study.case(point, 0),
+            &crate::coupling::AirProperties::default(),
+        );
+        let simulation = &study.simulation;
+        simulation
+            .check(&moving)
+            .and_then(|()| simulation.render_texts(&moving).map(drop))
+            .map_err(|e| {
+                self.error(
+                    "coupling",
+                    format!(
+                        "the {} solver cannot run the DEM in the CFD stage's air: {e}",
+                        simulation.solver_name()
+                    ),
+                )
+            })
     }
 
     /// Refuses a study that would run more than [`MAX_RUNS`] jobs over all its rounds:

@@ -1,7 +1,7 @@
 use std::path::Path;
 
 use super::*;
-use crate::hopper::{case_with, observe, on, render_default};
+use crate::hopper::{self, case_with, observe, on, render_default};
 use crate::{Simulation, TemplateText};
 
 /// Renders `case` with the default template and returns the deck.
@@ -33,14 +33,7 @@ fn vibrated_deck_with_valve_snapshot() {
 
 #[test]
 fn poured_deck_in_air_with_dumps_snapshot() {
-    let case = case_with(&[
-        ("pour_rate", 0.08),
-        ("pour_diameter", 0.02),
-        ("fill_time", 1.0),
-        ("dump_every", 50000.0),
-        ("n_particles", 1500.0),
-        ("air_density", 1.2),
-    ]);
+    let case = hopper::poured_case(&[("air_density", 1.2)]);
     insta::assert_snapshot!("poured_deck_in_air_with_dumps", check(&case));
 }
 

@@ -34,14 +34,7 @@ fn vibrated_valve_case_snapshot() {
 
 #[test]
 fn poured_case_in_air_with_dumps_snapshot() {
-    let case = case_with(&[
-        ("pour_rate", 0.08),
-        ("pour_diameter", 0.02),
-        ("fill_time", 1.0),
-        ("dump_every", 50000.0),
-        ("n_particles", 1500.0),
-        ("air_density", 1.2),
-    ]);
+    let case = hopper::poured_case(&[("air_density", 1.2)]);
     insta::assert_snapshot!("poured_case_in_air_with_dumps", check(&case));
 }
 

@@ -34,13 +34,7 @@ fn vibrated_valve_script_snapshot() {
 fn poured_script_with_dumps_snapshot() {
     insta::assert_snapshot!(
         "poured_script_with_dumps",
-        render(&case_with(&[
-            ("pour_rate", 0.08),
-            ("pour_diameter", 0.02),
-            ("fill_time", 1.0),
-            ("dump_every", 50000.0),
-            ("n_particles", 1500.0),
-        ]))
+        render(&hopper::poured_case(&[]))
     );
 }
 

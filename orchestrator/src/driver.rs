@@ -389,50 +389,63 @@ impl<E: Executor> Driver<'_, E> {
         Ok(Some(note))
     }
 
-    async fn launch(&mut self, job: &JobRow) -> Result<(), DriverError> {
-        let run_dir = PathBuf::from(&job.run_dir);
-        if let Err(e) = clean_run_dir(&run_dir) {
-            self.store
-                .mark_failed(
-                    job.id,
-                    None,
-                    &format!(
-                        "cannot prepare the run directory {}: {e}",
-                        run_dir.display()
-                    ),
-                )
-                .await?;
+    /// Renders `jobs` and hands them to the executor in one call (on Slurm, job arrays);
+    /// a job that cannot be prepared or rendered fails alone with why.
+    async fn launch(&mut self, jobs: &[&JobRow]) -> Result<(), DriverError> {
+        let mut ready: Vec<(&JobRow, LaunchSpec)> = Vec::with_capacity(jobs.len());
+        for &job in jobs {
+            let run_dir = PathBuf::from(&job.run_dir);
+            if let Err(e) = clean_run_dir(&run_dir) {
+                self.store
+                    .mark_failed(
+                        job.id,
+                        None,
+                        &format!(
+                            "cannot prepare the run directory {}: {e}",
+                            run_dir.display()
+                        ),
+                    )
+                    .await?;
+                continue;
+            }
+            let command = match self.render(job, &run_dir).await {
+                Ok(command) => command,
+                Err(message) => {
+                    self.report(job, &message);
+                    self.store.mark_failed(job.id, None, &message).await?;
+                    continue;
+                }
+            };
+            self.store.mark_rendered(job.id).await?;
+            let spec = LaunchSpec {
+                name: self.spec_name(job),
+                run_dir,
+                command,
+            };
+            ready.push((job, spec));
+        }
+        if ready.is_empty() {
             return Ok(());
         }
-        let command = match self.render(job, &run_dir).await {
-            Ok(command) => command,
-            Err(message) => {
-                self.report(job, &message);
-                self.store.mark_failed(job.id, None, &message).await?;
-                return Ok(());
-            }
-        };
-        self.store.mark_rendered(job.id).await?;
-        let spec = LaunchSpec {
-            name: self.spec_name(job),
-            run_dir: run_dir.clone(),
-            command,
-        };
-        match self.executor.launch(&spec).await {
-            Ok(launched) if launched.queued => {
-                self.store.mark_submitted(job.id, &launched.handle).await?;
-                tracing::info!(job = %job.name, handle = %launched.handle, "submitted");
-            }
-            Ok(launched) => {
-                self.store
-                    .mark_running(job.id, &launched.handle, now_s())
-                    .await?;
-                tracing::info!(job = %job.name, handle = %launched.handle, "launched");
-            }
-            Err(e) => {
-                let message = e.to_string();
-                self.report(job, &message);
-                self.store.mark_failed(job.id, None, &message).await?;
+        let specs: Vec<LaunchSpec> = ready.iter().map(|(_, spec)| spec.clone()).collect();
+        let answers = self.executor.launch_many(&specs).await;
+        for ((job, _), answer) in ready.into_iter().zip(answers) {
+            match answer {
+                Ok(launched) if launched.queued => {
+                    self.store.mark_submitted(job.id, &launched.handle).await?;
+                    tracing::info!(job = %job.name, handle = %launched.handle, "submitted");
+                }
+                Ok(launched) => {
+                    self.store
+                        .mark_running(job.id, &launched.handle, now_s())
+                        .await?;
+                    tracing::info!(job = %job.name, handle = %launched.handle, "launched");
+                }
+                Err(e) => {
+                    let message = e.to_string();
+                    self.report(job, &message);
+                    self.store.mark_failed(job.id, None, &message).await?;
+                }
             }
         }
         Ok(())
@@ -517,7 +530,8 @@ impl<E: Executor> Driver<'_, E> {
     }
 
     /// Applies the decisions of [`crate::decide`] about `jobs`, in order. Consecutive
-    /// terminations go to the executor in one call (one `scancel` for many).
+    /// terminations go to the executor in one call (one `scancel` for many), and so do
+    /// consecutive launches (one job array for many).
     async fn apply(&mut self, jobs: &[&JobRow], actions: Vec<Action>) -> Result<(), DriverError> {
         let by_id: HashMap<i64, &JobRow> = jobs.iter().map(|j| (j.id, *j)).collect();
         let mut actions = actions.into_iter().peekable();
@@ -577,7 +591,15 @@ impl<E: Executor> Driver<'_, E> {
                         .requeue(job.id, "interrupted by the user", true)
                         .await?;
                 }
-                Action::Launch { .. } => self.launch(job).await?,
+                Action::Launch { .. } => {
+                    let mut batch = vec![job];
+                    while let Some(Action::Launch { .. }) = actions.peek() {
+                        if let Some(next) = actions.next().and_then(|a| by_id.get(&a.job())) {
+                            batch.push(*next);
+                        }
+                    }
+                    self.launch(&batch).await?;
+                }
             }
         }
         Ok(())

@@ -1,8 +1,9 @@
 //! Studies on a real Slurm cluster (slurmctld + two slurmd + munge, started by
 //! `scripts/slurm up`), running the native kernel: the same responses as the local
-//! executor, Slurm's reasons for failed, timed-out and scancelled jobs, and `kill -9`
-//! of orch with ten jobs on the cluster followed by `orch resume`, which re-attaches
-//! without submitting anything twice.
+//! executor, Slurm's reasons for failed, timed-out and scancelled jobs, a round of fifty
+//! jobs as one job array through `kill -9` of orch mid-submission and `orch resume`
+//! (re-attached, nothing submitted twice, a failed task retried alone), and a node
+//! failure.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -244,20 +245,21 @@ fn failed_timed_out_and_scancelled_slurm_jobs_end_with_slurms_reason() {
     assert!(table.contains(&format!("slurm:{id}")), "{table}");
 }
 
-/// Ten native runs (5 points × 2 replicates), all submitted at once.
-const TEN: &str = "\
-name: ten
+/// Fifty short native runs (50 particles), one retry each: one job array.
+const FIFTY: &str = "\
+name: fifty
 solver: native
-executor: {kind: slurm, poll_interval: 1s, time_limit: 5min}
+executor: {kind: slurm, poll_interval: 1s, time_limit: 5min, retries: 1}
 factors:
   - {name: outlet_diameter, min: 0.020, max: 0.028, unit: m}
-fixed: {n_particles: 1000, fill_time: 0.2, discharge_time: 0.6}
-design: {type: full_factorial, levels: 5}
-replicates: 2
+fixed: {n_particles: 50, fill_time: 0.02, discharge_time: 0.2}
+design: {type: full_factorial, levels: 50}
 seed: 11
 ";
 
-/// A directory with an `sbatch` that counts its calls in `calls`, then runs Slurm's.
+/// A directory with an `sbatch` that runs Slurm's, then appends the directory it was
+/// called from to `sbatch-calls` and, while the file `slow-sbatch` exists, sleeps
+/// before answering: an orch killed then has submitted without recording it.
 fn counting_sbatch(dir: &Path) -> PathBuf {
     let real = Command::new("sh")
         .args(["-c", "command -v sbatch"])
@@ -267,13 +269,15 @@ fn counting_sbatch(dir: &Path) -> PathBuf {
     assert!(!real.is_empty(), "no sbatch on PATH");
     let bin = dir.join("bin");
     std::fs::create_dir_all(&bin).unwrap();
-    let calls = dir.join("sbatch-calls");
+    let (calls, slow) = (dir.join("sbatch-calls"), dir.join("slow-sbatch"));
     let wrapper = bin.join("sbatch");
     std::fs::write(
         &wrapper,
         format!(
-            "#!/bin/sh\necho \"$PWD\" >> '{}'\nexec '{real}' \"$@\"\n",
-            calls.display()
+            "#!/bin/sh\nout=$('{real}' \"$@\")\nrc=$?\necho \"$PWD\" >> '{}'\n\
+             while [ -e '{}' ]; do sleep 0.2; done\necho \"$out\"\nexit $rc\n",
+            calls.display(),
+            slow.display()
         ),
     )
     .unwrap();
@@ -283,7 +287,8 @@ fn counting_sbatch(dir: &Path) -> PathBuf {
 }
 
 #[test]
-fn sigkill_with_ten_jobs_on_slurm_then_resume_reattaches_and_submits_nothing_twice() {
+fn fifty_jobs_go_out_as_one_array_survive_sigkill_mid_submission_and_a_failed_task_runs_again_alone(
+) {
     let Some(conf) = require_slurm() else { return };
     let _cluster = slurm_lock();
     let _lock = solver_lock();
@@ -294,54 +299,105 @@ fn sigkill_with_ten_jobs_on_slurm_then_resume_reattaches_and_submits_nothing_twi
     )
     .unwrap();
     project.env.push(("PATH".into(), path));
-    let file = project.write("ten.yaml", TEN);
+    let (calls, slow) = (
+        project.dir.path().join("sbatch-calls"),
+        project.dir.path().join("slow-sbatch"),
+    );
+    std::fs::write(&slow, "").unwrap();
+    let file = project.write("fifty.yaml", FIFTY);
     let mut orch = Background::start(&project, &["submit", file.to_str().unwrap()]);
-    let submitted = |s: &Value| {
-        s["jobs"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .filter(|j| j["state"] == "submitted" || j["state"] == "running")
-            .count()
-    };
-    let before = orch.wait_for(&project, "ten", Duration::from_secs(60), |s| {
-        submitted(s) == 10
-    });
+
+    // Slurm holds the array; orch waits for sbatch's answer. Break the last job's deck
+    // before its task can run, then kill orch before it records any handle.
+    let deadline = std::time::Instant::now() + Duration::from_secs(120);
+    while std::fs::read_to_string(&calls).map_or(0, |c| c.lines().count()) == 0 {
+        assert!(
+            std::time::Instant::now() < deadline,
+            "no sbatch within 120 s: {}",
+            orch.stderr()
+        );
+        assert!(
+            orch.child.try_wait().unwrap().is_none(),
+            "{}",
+            orch.stderr()
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let last = project.query("SELECT run_dir FROM jobs WHERE name = 'p049r0'")[0][0].clone();
+    let last = PathBuf::from(last);
+    assert!(
+        !last.join("orch-attempts.log").exists(),
+        "task 49 ran before the test could break its deck"
+    );
+    std::fs::write(last.join("hopper.toml"), "this is not a case file\n").unwrap();
     orch.child.kill().unwrap();
     orch.child.wait().unwrap();
-    let handles: BTreeMap<String, String> = before["jobs"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|j| {
-            (
-                j["name"].as_str().unwrap().to_string(),
-                j["handle"].as_str().unwrap().to_string(),
-            )
-        })
-        .collect();
-    eprintln!("killed orch with 10 jobs on Slurm: {handles:?}");
+    std::fs::remove_file(&slow).unwrap();
+    let recorded = project.query("SELECT name FROM jobs WHERE executor_handle IS NOT NULL");
+    assert!(
+        recorded.is_empty(),
+        "orch recorded handles before it was killed: {recorded:?}"
+    );
 
-    let output = project.run(&["resume", "ten"]);
-    assert_eq!(output.status.code(), Some(0), "{}", text(&output.stderr));
-    let status = project.status("ten");
-    assert_eq!(count(&status, "succeeded"), 10, "{status:#}");
+    let output = project.run(&["resume", "fifty"]);
+    let stderr = text(&output.stderr);
+    assert_eq!(output.status.code(), Some(0), "{stderr}");
+    assert!(stderr.contains("re-attached"), "{stderr}");
+    let status = project.status("fifty");
+    assert_eq!(count(&status, "succeeded"), 50, "{status:#}");
 
-    // Ten sbatch calls in all, and every job kept the Slurm job it had before the kill.
-    let calls = std::fs::read_to_string(project.dir.path().join("sbatch-calls")).unwrap();
-    assert_eq!(calls.lines().count(), 10, "{calls}");
+    // Two sbatch calls in all: the array, then the broken job's second attempt alone.
+    let calls = std::fs::read_to_string(&calls).unwrap();
+    let calls: Vec<&str> = calls.lines().collect();
+    assert_eq!(calls.len(), 2, "{calls:?}");
+    assert!(calls[0].contains("/slurm-arrays/"), "{calls:?}");
+    assert_eq!(Path::new(calls[1]), last, "{calls:?}");
+
+    let mut array = None;
     for job in status["jobs"].as_array().unwrap() {
         let name = job["name"].as_str().unwrap();
-        assert_eq!(job["handle"].as_str().unwrap(), handles[name], "{job}");
-        assert_eq!(job["attempts"], 1, "{job}");
+        let handle = job["handle"].as_str().unwrap();
         let run_dir = PathBuf::from(job["run_dir"].as_str().unwrap());
         let log = std::fs::read_to_string(run_dir.join("orch-attempts.log")).unwrap();
+        if name == "p049r0" {
+            assert_eq!(job["attempts"], 2, "{job}");
+            assert!(!handle.contains('_'), "a batch job of its own: {job}");
+            assert_eq!(
+                log.lines().filter(|l| l.starts_with("end 0 ")).count(),
+                1,
+                "{log}"
+            );
+            assert_eq!(
+                log.lines().filter(|l| l.starts_with("end ")).count(),
+                2,
+                "{log}"
+            );
+            continue;
+        }
+        // Task i of the one array, run once.
+        let index: u32 = name[1..4].parse().unwrap();
+        let (id, task) = handle
+            .strip_prefix("slurm:")
+            .and_then(|h| h.split_once('_'))
+            .unwrap_or_else(|| panic!("not an array task: {job}"));
+        assert_eq!(task.parse::<u32>().unwrap(), index, "{job}");
+        assert_eq!(*array.get_or_insert(id.to_string()), id, "{job}");
+        assert_eq!(job["attempts"], 1, "{job}");
+        assert!(log.starts_with(&format!("start {handle} ")), "{log}");
         assert_eq!(
             log.lines().filter(|l| l.starts_with("end 0 ")).count(),
             1,
             "{log}"
         );
     }
+    let notes = project.query(
+        "SELECT e.note FROM job_events e JOIN jobs j ON j.id = e.job_id WHERE j.name = 'p049r0' AND e.to_state = 'pending' AND e.note LIKE 'attempt 1 of 2 failed%'",
+    );
+    assert_eq!(notes.len(), 1, "{notes:?}");
+    assert!(
+        notes[0][0].contains("the solver exited with status"),
+        "{notes:?}"
+    );
 }
 
 /// Runs `scontrol ARGS` on the test cluster.

@@ -38,6 +38,16 @@ pub trait Executor {
     /// Starts a job (local) or hands it to the scheduler (Slurm).
     async fn launch(&mut self, spec: &LaunchSpec) -> Result<Launched, LaunchError>;
 
+    /// Starts or submits `specs`, all of one study; one answer per spec, in order. By
+    /// default one [`Executor::launch`] each; Slurm submits them as job arrays.
+    async fn launch_many(&mut self, specs: &[LaunchSpec]) -> Vec<Result<Launched, LaunchError>> {
+        let mut answers = Vec::with_capacity(specs.len());
+        for spec in specs {
+            answers.push(self.launch(spec).await);
+        }
+        answers
+    }
+
     /// Where each of `jobs` stands, in the same order; one query for all of them. An
     /// error means the executor could not be asked (e.g. slurmctld is down): nothing
     /// is known, nothing should change.

@@ -582,6 +582,10 @@ pub struct ExecutorFile {
     /// Slurm: how often `squeue` is asked about the jobs (default 5 s; one call for all).
     #[serde(default)]
     pub poll_interval: Option<TimeLimit>,
+    /// Slurm: most jobs per job array, one `sbatch` each (default 1000, at most the
+    /// cluster's `MaxArraySize`); 1 submits every job with an `sbatch` of its own.
+    #[serde(default)]
+    pub array_size: Option<usize>,
 }
 
 /// A duration written as seconds or as humantime text.

@@ -1873,6 +1873,7 @@ impl Checker<'_> {
             ("extra_sbatch", !executor.extra_sbatch.is_empty()),
             ("max_submitted", executor.max_submitted.is_some()),
             ("poll_interval", executor.poll_interval.is_some()),
+            ("array_size", executor.array_size.is_some()),
         ];
         match given.iter().find(|(_, set)| *set) {
             Some((name, _)) => Err(self.error(
@@ -1912,6 +1913,12 @@ impl Checker<'_> {
         if executor.cpus_per_task == Some(0) {
             return Err(self.error("executor.cpus_per_task", "expected at least 1"));
         }
+        if executor.array_size == Some(0) {
+            return Err(self.error(
+                "executor.array_size",
+                "expected at least 1 (1 submits each job with an sbatch of its own)",
+            ));
+        }
         for (i, option) in executor.extra_sbatch.iter().enumerate() {
             if !option.starts_with("--") || option.contains('\n') || option.len() < 3 {
                 return Err(self.error(
@@ -1940,6 +1947,7 @@ impl Checker<'_> {
             extra_sbatch: executor.extra_sbatch.clone(),
             time_limit: executor.time_limit.map(|t| t.0),
             poll_interval,
+            array_size: executor.array_size,
         })
     }
 }

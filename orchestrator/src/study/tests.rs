@@ -59,7 +59,7 @@ fn unknown_key_is_refused_with_line_and_column() {
     let text = VALID.replace("  retries: 1\n", "  retries: 1\n  retrys: 2\n");
     assert_eq!(
         error(&text),
-        "jobs/study.yaml:7:3: executor.retrys: unknown field `retrys`, expected one of `kind`, `max_parallel`, `cores_per_job`, `time_limit`, `retries`, `partition`, `cpus_per_task`, `mem`, `account`, `qos`, `extra_sbatch`, `max_submitted`, `poll_interval`"
+        "jobs/study.yaml:7:3: executor.retrys: unknown field `retrys`, expected one of `kind`, `max_parallel`, `cores_per_job`, `time_limit`, `retries`, `partition`, `cpus_per_task`, `mem`, `account`, `qos`, `extra_sbatch`, `max_submitted`, `poll_interval`, `array_size`"
     );
 }
 
@@ -216,6 +216,9 @@ fn a_slurm_executor_takes_its_submission_options() {
     assert_eq!(slurm.extra_sbatch, vec!["--constraint=avx2".to_string()]);
     assert_eq!(slurm.time_limit, Some(Duration::from_secs(600)));
     assert_eq!(slurm.poll_interval, Duration::from_secs(2));
+    assert_eq!(slurm.array_size, None);
+    let arrays = load(&text.replace("  max_submitted: 40\n", "  array_size: 200\n")).unwrap();
+    assert_eq!(arrays.executor.slurm.unwrap().array_size, Some(200));
     // Defaults.
     let text = VALID.replace("  max_parallel: 2\n", "  kind: slurm\n");
     let study = load(&text).unwrap();
@@ -303,6 +306,10 @@ fn slurm_options_are_checked_and_name_their_field() {
     assert!(slurm("cpus_per_task: 0").contains("executor.cpus_per_task: expected at least 1"));
     assert!(
         slurm("poll_interval: 10ms").contains("executor.poll_interval: expected at least 200ms")
+    );
+    assert_eq!(
+        slurm("array_size: 0"),
+        "jobs/study.yaml:5:15: executor.array_size: expected at least 1 (1 submits each job with an sbatch of its own)"
     );
     // A local study with a Slurm option is told so.
     let local = error(&VALID.replace("  retries: 1\n", "  retries: 1\n  partition: debug\n"));

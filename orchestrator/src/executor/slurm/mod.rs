@@ -1,7 +1,14 @@
-//! The Slurm executor: one batch job per orch job, `sbatch --parsable` to submit, one
-//! `squeue` per poll for all jobs, `scancel` to stop.
+//! The Slurm executor: `sbatch --parsable` to submit, one `squeue` per poll for all
+//! jobs, `scancel` to stop.
 //!
-//! Handles are `slurm:<job id>`. Each job's batch script ([`script`]) records the
+//! Jobs launched together (a round) go out as job arrays, one `sbatch` per
+//! `executor.array_size` jobs (at most the cluster's `MaxArraySize`) that ask for the
+//! same resources; a job launched alone (a retry) is a batch job of its own. An
+//! array's task list and script live in a folder beside the run directories
+//! (`slurm-arrays/`), and its tasks are jobs of their own to orch: polled, cancelled
+//! and retried one by one.
+//!
+//! Handles are `slurm:<job id>` or `slurm:<array job id>_<task>`. Each job's batch script ([`script`]) records the
 //! solver's exit status in the run directory; Slurm's state decides only what the
 //! script could not record: a time limit, a `scancel`, a failed node, preemption, or
 //! memory. A job slurmctld no longer lists (after `MinJobAge`) is judged by its run
@@ -11,12 +18,12 @@ pub mod parse;
 pub mod script;
 
 use std::collections::HashMap;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use tokio::process::Command;
 
-use self::parse::{SlurmJob, SlurmState};
+use self::parse::{SlurmId, SlurmJob, SlurmState};
 use super::{
     read_exit_status, Executor, JobStatus, LaunchError, LaunchSpec, Launched, PollError, Recovered,
     Report, StopCause, Watched, EXIT_STATUS_FILE,
@@ -26,6 +33,13 @@ use super::{
 pub const DEFAULT_POLL_INTERVAL: Duration = Duration::from_secs(5);
 /// Default number of jobs orch keeps submitted and unfinished at once.
 pub const DEFAULT_MAX_SUBMITTED: usize = 500;
+/// Default largest job array orch submits (tasks per `sbatch`).
+pub const DEFAULT_ARRAY_SIZE: usize = 1000;
+/// Slurm's default `MaxArraySize`, assumed when `scontrol show config` cannot say.
+pub const SLURM_DEFAULT_MAX_ARRAY_SIZE: usize = 1001;
+/// Folder of the job arrays' task lists, scripts and outputs, beside a study's run
+/// directories.
+pub const ARRAYS_DIR: &str = "slurm-arrays";
 
 /// How a study's jobs are submitted: its `executor:` section for `kind: slurm`.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -47,11 +61,19 @@ pub struct SlurmSettings {
     pub time_limit: Option<Duration>,
     /// Time between two `squeue` calls.
     pub poll_interval: Duration,
+    /// Most jobs per job array (none: [`DEFAULT_ARRAY_SIZE`]; 1: no arrays, one
+    /// `sbatch` per job).
+    pub array_size: Option<usize>,
 }
 
-/// A Slurm job id read from an orch handle `slurm:<id>`.
-pub fn job_id(handle: &str) -> Option<u64> {
+/// The Slurm job or array task of an orch handle `slurm:<id>` / `slurm:<id>_<task>`.
+pub fn job_id(handle: &str) -> Option<SlurmId> {
     handle.strip_prefix("slurm:")?.parse().ok()
+}
+
+/// The orch handle of a Slurm job or array task.
+pub fn handle_of(id: SlurmId) -> String {
+    format!("slurm:{id}")
 }
 
 /// Submits to, asks and cancels on the Slurm cluster that the `sbatch`, `squeue` and
@@ -61,6 +83,10 @@ pub struct SlurmExecutor {
     settings: SlurmSettings,
     /// Whether `squeue --json` works here; unknown until the first poll.
     json: Option<bool>,
+    /// The cluster's `MaxArraySize`; unknown until the first array.
+    max_array_size: Option<usize>,
+    /// Arrays submitted by this process, to name their folders apart.
+    arrays: u64,
     calls: HashMap<&'static str, u64>,
 }
 
@@ -70,6 +96,8 @@ impl SlurmExecutor {
         SlurmExecutor {
             settings,
             json: None,
+            max_array_size: None,
+            arrays: 0,
             calls: HashMap::new(),
         }
     }
@@ -98,7 +126,7 @@ impl SlurmExecutor {
     }
 
     /// Every job slurmctld holds, by id: `squeue --json` where it works, else text.
-    async fn queue(&mut self) -> Result<HashMap<u64, SlurmJob>, PollError> {
+    async fn queue(&mut self) -> Result<HashMap<SlurmId, SlurmJob>, PollError> {
         if self.json != Some(false) {
             let answer = self.run("squeue", &["--json"], None).await;
             match answer.as_deref().map(parse::parse_squeue_json) {
@@ -125,7 +153,11 @@ impl SlurmExecutor {
         }
         let format = format!("--format={}", parse::SQUEUE_TEXT_FORMAT);
         let text = self
-            .run("squeue", &["--noheader", "--states=all", &format], None)
+            .run(
+                "squeue",
+                &["--array", "--noheader", "--states=all", &format],
+                None,
+            )
             .await
             .map_err(|message| PollError {
                 command: "squeue".into(),
@@ -141,12 +173,139 @@ impl SlurmExecutor {
         }
         Ok(jobs.into_iter().map(|j| (j.id, j)).collect())
     }
+
+    /// The tasks of one array, at most the cluster's `MaxArraySize` (asked once).
+    async fn array_size(&mut self) -> usize {
+        let wanted = self
+            .settings
+            .array_size
+            .unwrap_or(DEFAULT_ARRAY_SIZE)
+            .max(1);
+        if wanted == 1 {
+            return 1;
+        }
+        if self.max_array_size.is_none() {
+            let config = self.run("scontrol", &["show", "config"], None).await;
+            let max = config.as_deref().ok().and_then(parse::parse_max_array_size);
+            if max.is_none() {
+                tracing::warn!("cannot read MaxArraySize from `scontrol show config`; assuming Slurm's default {SLURM_DEFAULT_MAX_ARRAY_SIZE}");
+            }
+            self.max_array_size = Some(max.unwrap_or(SLURM_DEFAULT_MAX_ARRAY_SIZE));
+        }
+        wanted.min(self.max_array_size.unwrap_or(SLURM_DEFAULT_MAX_ARRAY_SIZE))
+    }
+
+    /// Writes `spec`'s batch script into its run directory (and clears an earlier
+    /// attempt's exit status).
+    fn prepare(&self, spec: &LaunchSpec) -> Result<(), LaunchError> {
+        let launch_error = |source| LaunchError {
+            program: "sbatch".into(),
+            run_dir: spec.run_dir.clone(),
+            source,
+        };
+        let _ = std::fs::remove_file(spec.run_dir.join(EXIT_STATUS_FILE));
+        let text = script::batch_script(spec, &self.settings)
+            .map_err(|e| launch_error(std::io::Error::other(e)))?;
+        std::fs::write(spec.run_dir.join(script::BATCH_SCRIPT), text).map_err(launch_error)
+    }
+
+    /// Submits the prepared jobs `specs` (all asking for the same resources) as one
+    /// array; the handle of each task, in order.
+    async fn submit_array(&mut self, specs: &[&LaunchSpec]) -> Result<Vec<Launched>, LaunchError> {
+        let first = specs[0];
+        let launch_error = |source| LaunchError {
+            program: "sbatch".into(),
+            run_dir: first.run_dir.clone(),
+            source,
+        };
+        let study = first.name.split('/').next().unwrap_or(&first.name);
+        let runs = first.run_dir.parent().unwrap_or(Path::new("."));
+        self.arrays += 1;
+        let stamp = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |t| t.as_millis());
+        let array_dir: PathBuf =
+            runs.join(ARRAYS_DIR)
+                .join(format!("{stamp}-{}-{}", std::process::id(), self.arrays));
+        std::fs::create_dir_all(&array_dir).map_err(launch_error)?;
+        let tasks: String = specs
+            .iter()
+            .map(|spec| format!("{}\n", spec.run_dir.display()))
+            .collect();
+        std::fs::write(array_dir.join(script::ARRAY_TASKS), tasks).map_err(launch_error)?;
+        let text = script::array_script(study, &array_dir, specs.len(), first, &self.settings)
+            .map_err(|e| launch_error(std::io::Error::other(e)))?;
+        std::fs::write(array_dir.join(script::ARRAY_SCRIPT), text).map_err(launch_error)?;
+        let stdout = self
+            .run(
+                "sbatch",
+                &["--parsable", script::ARRAY_SCRIPT],
+                Some(&array_dir),
+            )
+            .await
+            .map_err(|e| {
+                launch_error(std::io::Error::other(format!(
+                    "sbatch refused the job array of {} jobs: {e}",
+                    specs.len()
+                )))
+            })?;
+        let array = parse::parse_sbatch_output(&stdout)
+            .map_err(|e| launch_error(std::io::Error::other(e)))?;
+        Ok((0..specs.len())
+            .map(|task| Launched {
+                handle: handle_of(SlurmId::task(array, task as u32)),
+                queued: true,
+            })
+            .collect())
+    }
+
+    /// The array task that runs the job of `run_dir` in a study's arrays, if slurmctld
+    /// still holds one: found by the arrays' name and their task lists.
+    async fn find_array_task(&mut self, study: &str, run_dir: &Path) -> Option<SlurmId> {
+        let name = format!("--name={}", script::array_job_name(study));
+        let text = self
+            .run(
+                "squeue",
+                &[
+                    "--array",
+                    "--noheader",
+                    "--states=all",
+                    &name,
+                    "--format=%i|%Z",
+                ],
+                None,
+            )
+            .await
+            .ok()?;
+        let wanted = std::fs::canonicalize(run_dir).unwrap_or_else(|_| run_dir.to_path_buf());
+        let mut lists: HashMap<String, Vec<PathBuf>> = HashMap::new();
+        let mut found = None;
+        for (id, dir) in text.lines().filter_map(|l| l.trim().split_once('|')) {
+            let Ok(id) = id.parse::<SlurmId>() else {
+                continue;
+            };
+            let Some(task) = id.task else { continue };
+            let list = lists.entry(dir.to_string()).or_insert_with(|| {
+                std::fs::read_to_string(Path::new(dir).join(script::ARRAY_TASKS))
+                    .map(|t| t.lines().map(PathBuf::from).collect())
+                    .unwrap_or_default()
+            });
+            let same = list.get(task as usize).is_some_and(|listed| {
+                listed == run_dir || std::fs::canonicalize(listed).is_ok_and(|l| l == wanted)
+            });
+            if same {
+                // The newest array holding it: the one orch last submitted.
+                found = found.max(Some(id));
+            }
+        }
+        found
+    }
 }
 
 /// What a job's state means for orch: Slurm's view where the batch script could not
 /// have recorded anything, the run directory's exit status otherwise. `recorded_exit`
 /// is the status the batch script wrote, if any.
-pub fn report_of(id: u64, job: Option<&SlurmJob>, recorded_exit: Option<i32>) -> Report {
+pub fn report_of(id: SlurmId, job: Option<&SlurmJob>, recorded_exit: Option<i32>) -> Report {
     let Some(job) = job else {
         // slurmctld forgot the job (MinJobAge): its run directory is all there is.
         return Report {
@@ -174,7 +333,10 @@ pub fn report_of(id: u64, job: Option<&SlurmJob>, recorded_exit: Option<i32>) ->
             None if job.state == SlurmState::Completed => JobStatus::Running,
             None => stopped(
                 StopCause::Other,
-                &format!("ended without recording an exit status (its batch script failed; see slurm-{id}.out)"),
+                &format!(
+                    "ended without recording an exit status (its batch script failed; see {})",
+                    slurm_output(id)
+                ),
             ),
         },
         SlurmState::Timeout | SlurmState::Deadline => {
@@ -195,6 +357,16 @@ pub fn report_of(id: u64, job: Option<&SlurmJob>, recorded_exit: Option<i32>) ->
     }
 }
 
+/// Where Slurm wrote the output of the batch script of `id`: the run directory's
+/// `slurm-<id>.out`, or an array task's `slurm-<array>_<task>.out` in its array's
+/// folder.
+fn slurm_output(id: SlurmId) -> String {
+    match id.task {
+        None => format!("slurm-{id}.out"),
+        Some(_) => format!("slurm-{id}.out in the study's {ARRAYS_DIR}/ folder"),
+    }
+}
+
 impl Executor for SlurmExecutor {
     async fn launch(&mut self, spec: &LaunchSpec) -> Result<Launched, LaunchError> {
         let launch_error = |source| LaunchError {
@@ -202,10 +374,7 @@ impl Executor for SlurmExecutor {
             run_dir: spec.run_dir.clone(),
             source,
         };
-        let _ = std::fs::remove_file(spec.run_dir.join(EXIT_STATUS_FILE));
-        let text = script::batch_script(spec, &self.settings)
-            .map_err(|e| launch_error(std::io::Error::other(e)))?;
-        std::fs::write(spec.run_dir.join(script::BATCH_SCRIPT), text).map_err(launch_error)?;
+        self.prepare(spec)?;
         let stdout = self
             .run(
                 "sbatch",
@@ -221,9 +390,67 @@ impl Executor for SlurmExecutor {
         let id = parse::parse_sbatch_output(&stdout)
             .map_err(|e| launch_error(std::io::Error::other(e)))?;
         Ok(Launched {
-            handle: format!("slurm:{id}"),
+            handle: handle_of(SlurmId::job(id)),
             queued: true,
         })
+    }
+
+    /// Jobs that ask for the same resources go out as arrays of at most the array size;
+    /// a job alone (or with arrays turned off) as a batch job of its own.
+    async fn launch_many(&mut self, specs: &[LaunchSpec]) -> Vec<Result<Launched, LaunchError>> {
+        let size = self.array_size().await;
+        if specs.len() < 2 || size < 2 {
+            let mut answers = Vec::with_capacity(specs.len());
+            for spec in specs {
+                answers.push(self.launch(spec).await);
+            }
+            return answers;
+        }
+        let mut answers: Vec<Option<Result<Launched, LaunchError>>> =
+            specs.iter().map(|_| None).collect();
+        // Prepared jobs by what they ask for, in launch order.
+        let mut groups: Vec<(Vec<String>, Vec<usize>)> = Vec::new();
+        for (i, spec) in specs.iter().enumerate() {
+            if let Err(e) = self.prepare(spec) {
+                answers[i] = Some(Err(e));
+                continue;
+            }
+            let asks = script::resource_options(spec, &self.settings).unwrap_or_default();
+            match groups.iter_mut().find(|(other, _)| *other == asks) {
+                Some((_, members)) => members.push(i),
+                None => groups.push((asks, vec![i])),
+            }
+        }
+        for (_, members) in groups {
+            for chunk in members.chunks(size) {
+                let chunk_specs: Vec<&LaunchSpec> = chunk.iter().map(|&i| &specs[i]).collect();
+                let submitted = if chunk.len() == 1 {
+                    self.launch(chunk_specs[0]).await.map(|l| vec![l])
+                } else {
+                    self.submit_array(&chunk_specs).await
+                };
+                match submitted {
+                    Ok(launched) => {
+                        for (&i, launched) in chunk.iter().zip(launched) {
+                            answers[i] = Some(Ok(launched));
+                        }
+                    }
+                    Err(e) => {
+                        for &i in chunk {
+                            answers[i] = Some(Err(LaunchError {
+                                program: e.program.clone(),
+                                run_dir: specs[i].run_dir.clone(),
+                                source: std::io::Error::other(e.source.to_string()),
+                            }));
+                        }
+                    }
+                }
+            }
+        }
+        answers
+            .into_iter()
+            .map(|answer| answer.expect("every job is prepared or refused"))
+            .collect()
     }
 
     async fn poll(&mut self, jobs: &[Watched<'_>]) -> Result<Vec<Report>, PollError> {
@@ -259,6 +486,10 @@ impl Executor for SlurmExecutor {
     }
 
     async fn recover_unrecorded(&mut self, spec_name: &str, run_dir: &Path) -> Recovered {
+        let study = spec_name.split('/').next().unwrap_or(spec_name);
+        if let Some(task) = self.find_array_task(study, run_dir).await {
+            return Recovered::Attached(handle_of(task));
+        }
         let name = format!("--name={}", script::slurm_job_name(spec_name));
         let Ok(text) = self
             .run(
@@ -278,7 +509,7 @@ impl Executor for SlurmExecutor {
             .filter_map(|(id, _)| id.parse::<u64>().ok())
             .max()
             .map_or(Recovered::Nothing, |id| {
-                Recovered::Attached(format!("slurm:{id}"))
+                Recovered::Attached(handle_of(SlurmId::job(id)))
             })
     }
 
@@ -316,7 +547,7 @@ mod tests {
 
     fn job(state: &str, reason: &str) -> SlurmJob {
         SlurmJob {
-            id: 7,
+            id: SlurmId::job(7),
             state: SlurmState::parse(state),
             reason: reason.into(),
             nodes: "n2".into(),
@@ -324,7 +555,7 @@ mod tests {
     }
 
     fn status(state: &str, reason: &str, recorded: Option<i32>) -> JobStatus {
-        report_of(7, Some(&job(state, reason)), recorded).status
+        report_of(SlurmId::job(7), Some(&job(state, reason)), recorded).status
     }
 
     fn cause(status: JobStatus) -> Option<StopCause> {
@@ -381,7 +612,7 @@ mod tests {
 
     #[test]
     fn waiting_and_running_jobs_carry_what_slurm_says() {
-        let pending = report_of(7, Some(&job("PENDING", "Priority")), None);
+        let pending = report_of(SlurmId::job(7), Some(&job("PENDING", "Priority")), None);
         assert_eq!(pending.status, JobStatus::Queued);
         assert_eq!(
             pending.scheduler_state.as_deref(),
@@ -393,15 +624,23 @@ mod tests {
 
     #[test]
     fn a_forgotten_job_is_judged_by_its_run_directory() {
-        assert_eq!(report_of(7, None, Some(0)).status, JobStatus::Exited(0));
-        assert_eq!(report_of(7, None, Some(2)).status, JobStatus::Exited(2));
-        assert_eq!(report_of(7, None, None).status, JobStatus::Lost);
+        let seven = SlurmId::job(7);
+        assert_eq!(report_of(seven, None, Some(0)).status, JobStatus::Exited(0));
+        assert_eq!(report_of(seven, None, Some(2)).status, JobStatus::Exited(2));
+        assert_eq!(report_of(seven, None, None).status, JobStatus::Lost);
     }
 
     #[test]
     fn handles_name_slurm_job_ids() {
-        assert_eq!(job_id("slurm:123"), Some(123));
+        assert_eq!(job_id("slurm:123"), Some(SlurmId::job(123)));
+        assert_eq!(job_id("slurm:123_4"), Some(SlurmId::task(123, 4)));
+        assert_eq!(handle_of(SlurmId::task(123, 4)), "slurm:123_4");
         assert_eq!(job_id("123:456"), None);
         assert_eq!(job_id("slurm:"), None);
+        let unrecorded = report_of(SlurmId::task(9, 3), Some(&job("FAILED", "None")), None);
+        assert!(
+            format!("{unrecorded:?}").contains("slurm-9_3.out in the study's slurm-arrays/ folder"),
+            "{unrecorded:?}"
+        );
     }
 }

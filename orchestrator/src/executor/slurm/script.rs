@@ -5,6 +5,10 @@
 //! (through a rename, never half-written) and start/end lines in `orch-attempts.log`.
 //! So a job's outcome is known from its run directory whether or not Slurm accounting
 //! is enabled, and after slurmctld has forgotten the job (`MinJobAge`).
+//!
+//! Jobs submitted together go out as one job array ([`array_script`]): its task `i`
+//! runs the batch script of the run directory on line `i + 1` of the array's task
+//! list, so each task records its outcome exactly as a job of its own does.
 
 use std::fmt::Write;
 use std::time::Duration;
@@ -16,11 +20,25 @@ use crate::executor::{LaunchSpec, ATTEMPTS_LOG, EXIT_STATUS_FILE, STDERR_FILE, S
 pub const BATCH_SCRIPT: &str = "orch-job.sbatch";
 /// Slurm's own output of the batch script (`%j`: the job id), in the run directory.
 pub const SLURM_OUTPUT: &str = "slurm-%j.out";
+/// File name of an array's batch script, in the array's directory.
+pub const ARRAY_SCRIPT: &str = "orch-array.sbatch";
+/// The array's task list, in its directory: one run directory per line, task `i` on
+/// line `i + 1`.
+pub const ARRAY_TASKS: &str = "tasks";
+/// Slurm's own output of an array task's script (`%A_%a`: array job id and task), in
+/// the array's directory.
+pub const ARRAY_OUTPUT: &str = "slurm-%A_%a.out";
 
 /// The Slurm job name of an orch job: `orch.<study>.<job>` (study and job names are
 /// letters, digits, `-` and `_`), so `squeue --name` finds it again.
 pub fn slurm_job_name(spec_name: &str) -> String {
     format!("orch.{}", spec_name.replace('/', "."))
+}
+
+/// The Slurm job name of the arrays orch submits for `study`: `orch-array.<study>`, so
+/// `squeue --name` finds them again.
+pub fn array_job_name(study: &str) -> String {
+    format!("orch-array.{study}")
 }
 
 /// Slurm's `--time` in whole minutes, rounded up (Slurm counts minutes).
@@ -119,7 +137,8 @@ pub fn sbatch_quote(option: &str) -> String {
 /// is one task on as many CPUs as its command's cores; an MPI solver (LIGGGHTS on
 /// several ranks, whose `mpirun` starts its ranks inside the allocation) is one task
 /// per rank on one CPU each. `executor.cpus_per_task` overrides the CPUs per task.
-/// Both on one node: orch's jobs are small enough, and `mpirun` then needs no hosts.
+/// A threaded job stays on one node; an MPI job's ranks go wherever Slurm finds CPUs,
+/// across nodes when one has too few (`mpirun` reads the allocation from Slurm).
 pub fn tasks_and_cpus(spec: &LaunchSpec, settings: &SlurmSettings) -> (usize, u32) {
     let cores = spec.command.cores.max(1);
     let (tasks, cpus) = if spec.command.mpi {
@@ -153,18 +172,99 @@ pub fn batch_script(spec: &LaunchSpec, settings: &SlurmSettings) -> Result<Strin
             COMMAND_REMEDY,
         )?;
     }
-    let (tasks, cpus) = tasks_and_cpus(spec, settings);
     let mut options = vec![
         format!("--job-name={}", slurm_job_name(&spec.name)),
         format!("--chdir={run_dir}"),
         format!("--output={SLURM_OUTPUT}"),
-        "--open-mode=append".to_string(),
-        "--nodes=1".to_string(),
+    ];
+    options.extend(resource_options(spec, settings)?);
+
+    let mut script = sbatch_header(&options);
+    let _ = writeln!(
+        script,
+        "# Written by orch for job {}: runs the solver and records how it ended in this\n\
+         # directory, so the outcome is known without Slurm accounting. Submitted alone or\n\
+         # run by a task of a job array (then its #SBATCH lines are the array's business).",
+        spec.name
+    );
+    let _ = writeln!(script, "cd {} || exit 97", shell_quote(&run_dir));
+    // The handle orch knows the attempt by: the job, or the array's task.
+    let _ = writeln!(
+        script,
+        "id=$SLURM_JOB_ID\n\
+         [ -n \"$SLURM_ARRAY_TASK_ID\" ] && id=${{SLURM_ARRAY_JOB_ID}}_$SLURM_ARRAY_TASK_ID\n\
+         echo \"start slurm:$id $(date +%s.%N) $(hostname) $SLURM_JOB_NODELIST\" >> {ATTEMPTS_LOG}"
+    );
+    for (key, value) in &spec.command.env {
+        let _ = writeln!(script, "export {key}={}", shell_quote(value));
+    }
+    let command: Vec<String> = std::iter::once(&spec.command.program)
+        .chain(&spec.command.args)
+        .map(|word| shell_quote(word))
+        .collect();
+    let _ = writeln!(
+        script,
+        "{} > {STDOUT_FILE} 2> {STDERR_FILE} < /dev/null\n\
+         rc=$?\n\
+         echo $rc > {EXIT_STATUS_FILE}.tmp && mv {EXIT_STATUS_FILE}.tmp {EXIT_STATUS_FILE}\n\
+         echo \"end $rc $(date +%s.%N)\" >> {ATTEMPTS_LOG}\n\
+         exit $rc",
+        command.join(" ")
+    );
+    Ok(script)
+}
+
+/// The batch script of a job array of `tasks` tasks (indices `0..tasks`) submitted
+/// from `array_dir` for `study`: task `i` runs the [`BATCH_SCRIPT`] of the run
+/// directory on line `i + 1` of [`ARRAY_TASKS`]. Every task asks for what `first`
+/// asks for (the caller groups jobs by what they ask for).
+pub fn array_script(
+    study: &str,
+    array_dir: &std::path::Path,
+    tasks: usize,
+    first: &LaunchSpec,
+    settings: &SlurmSettings,
+) -> Result<String, ScriptError> {
+    let dir = array_dir.display().to_string();
+    check_value("the array directory", &dir, PATH_REMEDY)?;
+    check_value("the study name", study, COMMAND_REMEDY)?;
+    let mut options = vec![
+        format!("--job-name={}", array_job_name(study)),
+        format!("--array=0-{}", tasks.saturating_sub(1)),
+        format!("--chdir={dir}"),
+        format!("--output={ARRAY_OUTPUT}"),
+    ];
+    options.extend(resource_options(first, settings)?);
+    let mut script = sbatch_header(&options);
+    let _ = writeln!(
+        script,
+        "# Written by orch for {tasks} jobs of study {study}: task i runs the batch script\n\
+         # of the run directory on line i + 1 of {ARRAY_TASKS}, which records how the job ended.\n\
+         line=$((SLURM_ARRAY_TASK_ID + 1))\n\
+         dir=$(sed -n \"${{line}}p\" {ARRAY_TASKS})\n\
+         [ -n \"$dir\" ] || {{ echo \"orch: no line $line in $PWD/{ARRAY_TASKS}\" >&2; exit 98; }}\n\
+         exec /bin/sh \"$dir/{BATCH_SCRIPT}\""
+    );
+    Ok(script)
+}
+
+/// What a job asks Slurm for, the same alone or as an array task: its tasks and CPUs,
+/// time, and the study's `executor:` options.
+pub fn resource_options(
+    spec: &LaunchSpec,
+    settings: &SlurmSettings,
+) -> Result<Vec<String>, ScriptError> {
+    let (tasks, cpus) = tasks_and_cpus(spec, settings);
+    let mut options = vec!["--open-mode=append".to_string()];
+    if !spec.command.mpi {
+        options.push("--nodes=1".to_string());
+    }
+    options.extend([
         format!("--ntasks={tasks}"),
         format!("--cpus-per-task={cpus}"),
         // orch decides about another attempt (its retry budget), not Slurm.
         "--no-requeue".to_string(),
-    ];
+    ]);
     if let Some(limit) = settings.time_limit {
         options.push(format!("--time={}", time_limit_minutes(limit)));
     }
@@ -184,39 +284,16 @@ pub fn batch_script(spec: &LaunchSpec, settings: &SlurmSettings) -> Result<Strin
         check_value("executor.extra_sbatch", option, SETTING_REMEDY)?;
         options.push(option.clone());
     }
+    Ok(options)
+}
 
+/// `#!/bin/sh` and one `#SBATCH` line per option.
+fn sbatch_header(options: &[String]) -> String {
     let mut script = String::from("#!/bin/sh\n");
-    for option in &options {
+    for option in options {
         let _ = writeln!(script, "#SBATCH {}", sbatch_quote(option));
     }
-    let _ = writeln!(
-        script,
-        "# Written by orch for job {}: runs the solver and records how it ended in this\n\
-         # directory, so the outcome is known without Slurm accounting.",
-        spec.name
-    );
-    let _ = writeln!(script, "cd {} || exit 97", shell_quote(&run_dir));
-    let _ = writeln!(
-        script,
-        "echo \"start slurm:$SLURM_JOB_ID $(date +%s.%N) $(hostname)\" >> {ATTEMPTS_LOG}"
-    );
-    for (key, value) in &spec.command.env {
-        let _ = writeln!(script, "export {key}={}", shell_quote(value));
-    }
-    let command: Vec<String> = std::iter::once(&spec.command.program)
-        .chain(&spec.command.args)
-        .map(|word| shell_quote(word))
-        .collect();
-    let _ = writeln!(
-        script,
-        "{} > {STDOUT_FILE} 2> {STDERR_FILE} < /dev/null\n\
-         rc=$?\n\
-         echo $rc > {EXIT_STATUS_FILE}.tmp && mv {EXIT_STATUS_FILE}.tmp {EXIT_STATUS_FILE}\n\
-         echo \"end $rc $(date +%s.%N)\" >> {ATTEMPTS_LOG}\n\
-         exit $rc",
-        command.join(" ")
-    );
-    Ok(script)
+    script
 }
 
 #[cfg(test)]
@@ -258,8 +335,77 @@ mod tests {
             extra_sbatch: vec!["--constraint=avx2".into(), "--exclusive".into()],
             time_limit: Some(Duration::from_secs(90)),
             poll_interval: Duration::from_secs(5),
+            array_size: None,
         };
         insta::assert_snapshot!(batch_script(&spec(), &settings).unwrap());
+    }
+
+    #[test]
+    fn array_script_runs_the_batch_script_of_the_task_s_line() {
+        let settings = SlurmSettings {
+            time_limit: Some(Duration::from_secs(300)),
+            ..SlurmSettings::default()
+        };
+        let dir = std::path::Path::new("/data/.orch/runs/quickstart/slurm-arrays/a1");
+        insta::assert_snapshot!(array_script("quickstart", dir, 50, &spec(), &settings).unwrap());
+    }
+
+    /// Runs `script` with `sh` as array task `task` in `dir`; its standard output.
+    fn run_as_task(script: &str, dir: &std::path::Path, task: u32) -> std::process::Output {
+        std::process::Command::new("/bin/sh")
+            .arg("-c")
+            .arg(script)
+            .current_dir(dir)
+            .env("SLURM_ARRAY_TASK_ID", task.to_string())
+            .env("SLURM_ARRAY_JOB_ID", "77")
+            .env("SLURM_JOB_ID", "80")
+            .output()
+            .unwrap()
+    }
+
+    #[test]
+    fn each_array_task_runs_its_own_job_and_records_it_under_the_task_handle() {
+        let root = tempfile::tempdir().unwrap();
+        let array = root.path().join("array");
+        std::fs::create_dir(&array).unwrap();
+        let mut lines = String::new();
+        for name in ["p0", "p 1"] {
+            let run_dir = root.path().join(name);
+            std::fs::create_dir(&run_dir).unwrap();
+            let job = LaunchSpec {
+                name: format!("q/{name}"),
+                run_dir: run_dir.clone(),
+                command: CommandSpec {
+                    program: "sh".into(),
+                    args: vec!["-c".into(), format!("echo ran {name}; exit 3")],
+                    env: BTreeMap::new(),
+                    cores: 1,
+                    mpi: false,
+                    log_file: "log".into(),
+                },
+            };
+            let text = batch_script(&job, &SlurmSettings::default()).unwrap();
+            std::fs::write(run_dir.join(BATCH_SCRIPT), text).unwrap();
+            lines.push_str(&format!("{}\n", run_dir.display()));
+        }
+        std::fs::write(array.join(ARRAY_TASKS), lines).unwrap();
+        let script = array_script("q", &array, 2, &spec(), &SlurmSettings::default()).unwrap();
+        let output = run_as_task(&script, &array, 1);
+        assert_eq!(output.status.code(), Some(3), "{output:?}");
+        let second = root.path().join("p 1");
+        let read = |file: &str| std::fs::read_to_string(second.join(file)).unwrap();
+        assert_eq!(read(STDOUT_FILE), "ran p 1\n");
+        assert_eq!(read(EXIT_STATUS_FILE), "3\n");
+        assert!(
+            read(ATTEMPTS_LOG).starts_with("start slurm:77_1 "),
+            "{}",
+            read(ATTEMPTS_LOG)
+        );
+        assert!(!root.path().join("p0").join(EXIT_STATUS_FILE).exists());
+        // A task past the list says so and fails.
+        let output = run_as_task(&script, &array, 2);
+        assert_eq!(output.status.code(), Some(98));
+        assert!(String::from_utf8_lossy(&output.stderr).contains("no line 3 in"));
     }
 
     #[test]
@@ -300,8 +446,11 @@ mod tests {
             ..spec()
         };
         let script = batch_script(&mpi, &defaults).unwrap();
+        // Its ranks may spread over nodes: no --nodes=1.
         assert!(
-            script.contains("#SBATCH --nodes=1\n#SBATCH --ntasks=2\n#SBATCH --cpus-per-task=1\n"),
+            script.contains(
+                "#SBATCH --open-mode=append\n#SBATCH --ntasks=2\n#SBATCH --cpus-per-task=1\n"
+            ),
             "{script}"
         );
         assert!(

@@ -1,4 +1,5 @@
-//! One run on many cores (`executor.cores_per_job`): LIGGGHTS on two MPI ranks and the
+//! One run on many cores (`executor.cores_per_job`): LIGGGHTS on two MPI ranks (on this
+//! machine, and spread over the two one-CPU nodes of the Slurm test cluster) and the
 //! native kernel on two threads, against the same studies on one core.
 
 use std::path::PathBuf;
@@ -6,15 +7,25 @@ use std::time::Instant;
 
 use serde_json::Value;
 
-use crate::support::{require_liggghts, solver_lock, text, Project};
+use crate::support::{require_liggghts, require_slurm, slurm_lock, solver_lock, text, Project};
 
 /// A two-point hopper study on `solver` with `cores` per job, one job at a time (so
 /// that the two studies' wall times compare run for run).
 fn study(solver: &str, cores: usize, particles: u32) -> String {
+    study_on(
+        &format!("{solver}-{cores}"),
+        solver,
+        &format!("{{max_parallel: 1, cores_per_job: {cores}, time_limit: 5min, retries: 0}}"),
+        particles,
+    )
+}
+
+/// The two-point hopper study of [`study`], named `name`, on `executor`.
+fn study_on(name: &str, solver: &str, executor: &str, particles: u32) -> String {
     format!(
-        "name: {solver}-{cores}\n\
+        "name: {name}\n\
          solver: {solver}\n\
-         executor: {{max_parallel: 1, cores_per_job: {cores}, time_limit: 5min, retries: 0}}\n\
+         executor: {executor}\n\
          factors:\n  - {{name: outlet_diameter, min: 0.024, max: 0.028, unit: m}}\n\
          fixed: {{n_particles: {particles}, fill_time: 0.2, discharge_time: 0.6}}\n\
          design: {{type: full_factorial, levels: 2}}\n\
@@ -66,10 +77,13 @@ fn run_dirs(project: &Project, study: &str) -> Vec<PathBuf> {
 }
 
 #[test]
-fn liggghts_on_two_mpi_ranks_discharges_like_one_rank() {
+fn liggghts_on_two_mpi_ranks_here_and_across_two_slurm_nodes_discharges_like_one_rank() {
     if !require_liggghts() {
         return;
     }
+    // The Slurm part's locks first, in the order the Slurm tests take them.
+    let slurm = require_slurm();
+    let _cluster = slurm.as_ref().map(|_| slurm_lock());
     let _lock = solver_lock();
     let project = Project::new();
     let (one, one_wall) = run(&project, "liggghts", 1, 1000);
@@ -101,6 +115,42 @@ fn liggghts_on_two_mpi_ranks_discharges_like_one_rank() {
             100.0 * (b / a - 1.0),
             loop_time(r1),
             loop_time(&r2)
+        );
+        assert!((b / a - 1.0).abs() <= 0.10, "{name}: {a} vs {b} kg/s");
+    }
+
+    // The same two ranks on the Slurm test cluster, whose nodes have one CPU each: each
+    // job's ranks run on both nodes, mpirun starting the second through Slurm.
+    let Some(conf) = slurm else { return };
+    let cluster = Project::on_slurm(&conf);
+    let executor =
+        "{kind: slurm, cores_per_job: 2, time_limit: 5min, retries: 0, poll_interval: 1s}";
+    let file = cluster.write(
+        "liggghts-2-slurm.yaml",
+        &study_on("liggghts-2-slurm", "liggghts", executor, 1000),
+    );
+    let output = cluster.run(&["submit", file.to_str().unwrap()]);
+    let stderr = text(&output.stderr);
+    assert_eq!(output.status.code(), Some(0), "{stderr}");
+    let spread = cluster.status("liggghts-2-slurm");
+    for job in spread["jobs"].as_array().unwrap() {
+        let dir = PathBuf::from(job["run_dir"].as_str().unwrap());
+        let attempts = std::fs::read_to_string(dir.join("orch-attempts.log")).unwrap();
+        // `start slurm:<id> <time> <host> <nodes>`: the allocation spans both nodes.
+        let nodes = attempts.lines().next().unwrap().rsplit(' ').next().unwrap();
+        assert_eq!(nodes, "n[1-2]", "{attempts}");
+        let log = std::fs::read_to_string(dir.join("log.liggghts")).unwrap();
+        assert!(log.contains("1 by 1 by 2 MPI processor grid"), "{log}");
+        assert!(log.contains(" on 2 procs for "), "{log}");
+    }
+    for ((name, r1), (_, r2)) in responses(&one).iter().zip(responses(&spread)) {
+        let (a, b) = (
+            r1["discharge_rate"].as_f64().unwrap(),
+            r2["discharge_rate"].as_f64().unwrap(),
+        );
+        eprintln!(
+            "{name}: discharge_rate 1 rank {a:.4} kg/s, 2 ranks on 2 Slurm nodes {b:.4} kg/s ({:+.1} %)",
+            100.0 * (b / a - 1.0)
         );
         assert!((b / a - 1.0).abs() <= 0.10, "{name}: {a} vs {b} kg/s");
     }

@@ -252,8 +252,13 @@ fn status_and_logs_of_unknown_things_say_what_to_do() {
 fn every_study_in_jobs_validates() {
     let jobs = crate::support::root().join("jobs");
     let mut checked = 0;
-    for entry in std::fs::read_dir(&jobs).unwrap().flatten() {
-        let path = entry.path();
+    // jobs/ and jobs/thesis/ (jobs/compare/ holds the comparison suite, not studies).
+    let files = [jobs.clone(), jobs.join("thesis")]
+        .iter()
+        .flat_map(|dir| std::fs::read_dir(dir).unwrap().flatten())
+        .map(|entry| entry.path())
+        .collect::<Vec<_>>();
+    for path in files {
         if path.extension().is_some_and(|e| e == "yaml") {
             let project = Project::new();
             let output = project.run(&["submit", "--dry-run", path.to_str().unwrap()]);

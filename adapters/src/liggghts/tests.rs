@@ -201,6 +201,7 @@ fn command_on_two_cores_runs_two_mpi_ranks_allowed_as_root() {
     assert_eq!(command.cores, 2);
     assert_eq!(command.env["OMPI_ALLOW_RUN_AS_ROOT"], "1");
     assert_eq!(command.env["OMPI_ALLOW_RUN_AS_ROOT_CONFIRM"], "1");
+    assert_eq!(command.env["OMPI_MCA_mpi_yield_when_idle"], "1");
 }
 
 #[test]

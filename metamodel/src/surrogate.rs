@@ -32,6 +32,12 @@ use crate::student::student_t_quantile;
 /// one's is chosen over it.
 pub const PARSIMONY: f64 = 0.05;
 
+/// The most runs Kriging is fitted to. Its likelihood search factorises the n × n
+/// correlation matrix (n³/3 flops, 8 n² bytes) at every step of several Nelder–Mead
+/// starts: at 10^4 runs that is 800 MB and 3·10^11 flops per step. Above this the model
+/// choice compares the polynomials only, and its Kriging candidate says why.
+pub const MAX_KRIGING_RUNS: usize = 500;
+
 /// Which surrogate a study asks for.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ModelChoice {
@@ -164,7 +170,15 @@ pub fn choose(
     }
     if matches!(model, ModelChoice::Auto | ModelChoice::Kriging) {
         let name = kriging_name(kriging.kernel, kriging.trend);
-        fitted.push(match Kriging::fit(x, y, kriging) {
+        let fit = if y.len() > MAX_KRIGING_RUNS {
+            Err(format!(
+                "not fitted: {} runs, more than the {MAX_KRIGING_RUNS} Kriging is fitted to (its cost grows as the cube of the runs)",
+                y.len()
+            ))
+        } else {
+            Kriging::fit(x, y, kriging).map_err(|e| e.to_string())
+        };
+        fitted.push(match fit {
             Ok(fit) => {
                 let surrogate = Surrogate::kriging(fit, y);
                 let Surrogate::Kriging { quality, .. } = &surrogate else {
@@ -183,7 +197,7 @@ pub fn choose(
                     name,
                     parameters: 0,
                     loo_rmse: None,
-                    note: Some(e.to_string()),
+                    note: Some(e),
                 },
                 None,
             ),
@@ -513,6 +527,40 @@ mod tests {
         )
         .unwrap()
         .points
+    }
+
+    #[test]
+    fn kriging_is_not_fitted_to_more_runs_than_its_limit_and_a_polynomial_is_chosen() {
+        // A quadratic in one factor at MAX_KRIGING_RUNS + 1 evenly spaced points.
+        let n = MAX_KRIGING_RUNS + 1;
+        let x: Vec<Vec<f64>> = (0..n)
+            .map(|i| vec![-1.0 + 2.0 * i as f64 / (n - 1) as f64])
+            .collect();
+        let y: Vec<f64> = x.iter().map(|p| 1.0 + p[0] - 0.5 * p[0] * p[0]).collect();
+        let choice = choose(
+            ModelChoice::Auto,
+            BasisKind::Legendre,
+            &names(1),
+            &x,
+            &y,
+            &KrigingOptions::default(),
+        )
+        .unwrap();
+        let kriging = choice.candidates.last().unwrap();
+        assert!(kriging.name.starts_with("kriging"), "{}", kriging.name);
+        assert_eq!(kriging.loo_rmse, None);
+        let note = kriging.note.as_deref().unwrap();
+        assert!(note.contains(&format!("{n} runs")), "{note}");
+        assert!(matches!(choice.surrogate, Surrogate::Polynomial(_)));
+        let asked_for_kriging = choose(
+            ModelChoice::Kriging,
+            BasisKind::Legendre,
+            &names(1),
+            &x,
+            &y,
+            &KrigingOptions::default(),
+        );
+        assert!(asked_for_kriging.unwrap_err().contains("not fitted"));
     }
 
     #[test]

@@ -942,7 +942,7 @@ async fn show_status(
                 .parent()
                 .unwrap_or(Path::new("."))
                 .to_path_buf();
-            let responses = stored_study(&store, &row)
+            let responses = stored_study_to_read(&store, &row)
                 .await?
                 .map(|s| s.shown_responses())
                 .unwrap_or_default();
@@ -958,14 +958,33 @@ async fn show_status(
 }
 
 /// The study as it was submitted: its stored file text, template and files, validated
-/// again.
+/// again, every design point included (to run it).
 async fn stored_study(store: &Store, row: &StudyRow) -> anyhow::Result<Result<Study, StudyError>> {
+    load_stored_study(store, row, false).await
+}
+
+/// The stored study for commands that only read it (status, export, report, cancel):
+/// validated again except for the per-point check it passed when it was submitted,
+/// whose cost grows with the points.
+async fn stored_study_to_read(
+    store: &Store,
+    row: &StudyRow,
+) -> anyhow::Result<Result<Study, StudyError>> {
+    load_stored_study(store, row, true).await
+}
+
+async fn load_stored_study(
+    store: &Store,
+    row: &StudyRow,
+    for_reading: bool,
+) -> anyhow::Result<Result<Study, StudyError>> {
     let stored = Stored {
         template: Some(Template {
             name: row.template_name.clone(),
             text: row.template_text.clone(),
         }),
         inputs: store.study_inputs(row.id).await?,
+        for_reading,
     };
     let study = Study::from_text(Path::new(&row.file_path), &row.file_text, Some(stored));
     // Submitted with `--as`, the study's name is the stored one, not the file's.
@@ -1125,7 +1144,7 @@ async fn export(
     output: Option<&Path>,
 ) -> anyhow::Result<i32> {
     let (store, row) = find(project_dir, name).await?;
-    let study = stored_study(&store, &row).await?.ok();
+    let study = stored_study_to_read(&store, &row).await?.ok();
     let table = if series {
         crate::export::series_table(&store, &row, study.as_ref()).await?
     } else {
@@ -1153,7 +1172,7 @@ async fn report(
     output: Option<PathBuf>,
 ) -> anyhow::Result<i32> {
     let (store, row) = find(project_dir, name).await?;
-    let study = stored_study(&store, &row).await?.ok();
+    let study = stored_study_to_read(&store, &row).await?.ok();
     let html = crate::report::render(&store, &row, study.as_ref()).await?;
     let path = output.unwrap_or_else(|| {
         store
@@ -1200,7 +1219,7 @@ async fn cancel(project_dir: Option<&Path>, name: &str) -> anyhow::Result<i32> {
         .iter()
         .filter_map(|job| job.executor_handle.as_deref())
         .collect();
-    let slurm = stored_study(&store, &row)
+    let slurm = stored_study_to_read(&store, &row)
         .await?
         .ok()
         .and_then(|study| study.executor.slurm);

@@ -109,6 +109,11 @@ impl ConvergenceWatch {
     pub fn forget(&mut self, job_id: i64) {
         self.checked.remove(&job_id);
     }
+
+    /// Forgets every job for which `keep` is false (those no longer running).
+    pub fn retain(&mut self, keep: impl Fn(i64) -> bool) {
+        self.checked.retain(|&job_id, _| keep(job_id));
+    }
 }
 
 #[cfg(test)]
@@ -164,6 +169,19 @@ mod tests {
         assert!(watch.record(7, Some((0.2, 0.019)), true, t(25)));
         watch.forget(7);
         assert!(watch.due(7, &stop(), t(25)));
+    }
+
+    #[test]
+    fn retain_forgets_the_jobs_no_longer_kept_and_only_those() {
+        let t0 = Instant::now();
+        let mut watch = ConvergenceWatch::default();
+        for job in [1, 2, 3] {
+            watch.record(job, Some((0.2, 0.05)), false, t0);
+        }
+        watch.retain(|job| job != 2);
+        assert!(watch.due(2, &stop(), t0));
+        assert!(!watch.due(1, &stop(), t0));
+        assert!(!watch.due(3, &stop(), t0));
     }
 
     #[test]

@@ -50,6 +50,9 @@ use crate::study::{ExecutorKind, StageConfig, Study, STOP_FILE};
 
 /// How often the driver looks at its jobs.
 pub const TICK: Duration = Duration::from_millis(100);
+/// How often the bar of a round is brought up to date (it reads every job of the
+/// study).
+const PROGRESS_EVERY: Duration = Duration::from_secs(1);
 /// How often an executor that cannot be asked (slurmctld down) is reported.
 const POLL_ERROR_REPORT: Duration = Duration::from_secs(60);
 
@@ -131,6 +134,7 @@ async fn drive_with<E: Executor>(
         last_poll: None,
         last_poll_error: None,
         progress: Progress::on_stderr(),
+        last_progress: None,
         convergence: ConvergenceWatch::default(),
     };
     let mut interrupt = signal(SignalKind::interrupt()).map_err(DriverError::Signals)?;
@@ -151,12 +155,14 @@ async fn drive_with<E: Executor>(
         if store.study_state(study_id).await? == StudyState::Cancelled {
             break driver.stop_for_cancel().await?;
         }
-        let jobs = store.jobs(study_id).await?;
         if driver.poll_due() {
-            let launched: Vec<&JobRow> = jobs.iter().filter(|j| is_launched(j.state())).collect();
-            driver.poll(&launched).await?;
+            let launched = store.launched_jobs(study_id).await?;
+            driver.poll(&launched.iter().collect::<Vec<_>>()).await?;
         }
-        let jobs = store.jobs(study_id).await?;
+        // A final job stays final while this driver holds the study, so a tick reads the
+        // others and the jobs they follow, not the whole study: what is decided about
+        // them is the same, at a cost that does not grow with the finished jobs.
+        let jobs = store.unfinished_jobs(study_id).await?;
         driver.stop_converged(&jobs).await;
         let terminating: HashSet<i64> = driver.terminating.keys().copied().collect();
         let actions = decide::settle_and_launch(&jobs, &driver.budgets, &terminating, |job| {
@@ -165,7 +171,7 @@ async fn drive_with<E: Executor>(
         driver
             .apply(&jobs.iter().collect::<Vec<_>>(), actions)
             .await?;
-        driver.show_progress(&jobs);
+        driver.show_progress().await?;
         if decide::is_finished(&jobs) {
             break Ending::Finished;
         }
@@ -204,6 +210,8 @@ struct Driver<'a, E> {
     last_poll_error: Option<Instant>,
     /// The bar of the round on a terminal; job lines go above it.
     progress: Progress,
+    /// When the bar was last updated.
+    last_progress: Option<Instant>,
     /// Running jobs' checks against the study's `stop_when:`.
     convergence: ConvergenceWatch,
 }
@@ -487,6 +495,13 @@ impl<E: Executor> Driver<'_, E> {
             return;
         };
         let now = Instant::now();
+        // Jobs that ended since the last tick are not in `jobs` any more.
+        let running: HashSet<i64> = jobs
+            .iter()
+            .filter(|j| j.state() == JobState::Running)
+            .map(|j| j.id)
+            .collect();
+        self.convergence.retain(|id| running.contains(&id));
         for job in jobs {
             let running = job.state() == JobState::Running && job.stage_kind().is_none();
             if !running {
@@ -773,8 +788,18 @@ impl<E: Executor> Driver<'_, E> {
         ));
     }
 
-    /// Updates the bar with where the latest round stands (`jobs` as read this tick).
-    fn show_progress(&self, jobs: &[JobRow]) {
+    /// Updates the bar, when there is one, with where the latest round stands, at most
+    /// every [`PROGRESS_EVERY`]: it counts every job of the round, finished ones too.
+    async fn show_progress(&mut self) -> Result<(), DriverError> {
+        if !self.progress.is_shown()
+            || self
+                .last_progress
+                .is_some_and(|last| last.elapsed() < PROGRESS_EVERY)
+        {
+            return Ok(());
+        }
+        self.last_progress = Some(Instant::now());
+        let jobs = self.store.jobs(self.study_id).await?;
         let round_of = |job: &JobRow| self.points.get(&job.point_id).map_or(0, |p| p.round);
         let round = jobs.iter().map(round_of).max().unwrap_or(0);
         let round_jobs: Vec<&JobRow> = jobs.iter().filter(|j| round_of(j) == round).collect();
@@ -785,6 +810,7 @@ impl<E: Executor> Driver<'_, E> {
             self.budgets.max_parallel,
         );
         self.progress.update(&progress);
+        Ok(())
     }
 
     /// Why a run that succeeded lacks responses the study asks for (its objective's and

@@ -221,6 +221,7 @@ pub async fn study_of(
     let stored = Stored {
         template: Some(parent.template()),
         inputs: parent.inputs.iter().cloned().collect(),
+        for_reading: false,
     };
     let study = Study::from_text(Path::new(&parent_row.file_path), &text, Some(stored))
         .map_err(|e: StudyError| format!("the noise design's study is not valid: {e}"));

@@ -103,6 +103,11 @@ impl Progress {
         Progress { bar }
     }
 
+    /// True when there is a bar (standard error is a terminal).
+    pub fn is_shown(&self) -> bool {
+        self.bar.is_some()
+    }
+
     /// Prints a line: above the bar, or plainly.
     pub fn println(&self, line: &str) {
         match &self.bar {

@@ -412,6 +412,36 @@ impl Store {
             .map_err(query_error("list jobs"))
     }
 
+    /// A study's jobs that are submitted or running (to poll), in id order.
+    pub async fn launched_jobs(&self, study_id: i64) -> Result<Vec<JobRow>, StoreError> {
+        sqlx::query_as(
+            "SELECT * FROM jobs WHERE study_id = ? AND state IN ('submitted', 'running') ORDER BY id",
+        )
+        .bind(study_id)
+        .fetch_all(&self.pool)
+        .await
+        .map_err(query_error("list launched jobs"))
+    }
+
+    /// A study's jobs that are not final, and the jobs those follow (`after_job_id`,
+    /// whatever their state), in id order: what the driver decides about at each tick.
+    /// Its cost grows with the unfinished jobs, not with the study (the index
+    /// `jobs_by_state`).
+    pub async fn unfinished_jobs(&self, study_id: i64) -> Result<Vec<JobRow>, StoreError> {
+        sqlx::query_as(
+            "SELECT * FROM jobs WHERE study_id = ?1
+               AND (state IN ('pending', 'rendered', 'submitted', 'running')
+                    OR id IN (SELECT after_job_id FROM jobs
+                              WHERE study_id = ?1 AND after_job_id IS NOT NULL
+                                AND state IN ('pending', 'rendered', 'submitted', 'running')))
+             ORDER BY id",
+        )
+        .bind(study_id)
+        .fetch_all(&self.pool)
+        .await
+        .map_err(query_error("list unfinished jobs"))
+    }
+
     /// One job by id.
     pub async fn job(&self, job_id: i64) -> Result<JobRow, StoreError> {
         sqlx::query_as("SELECT * FROM jobs WHERE id = ?")

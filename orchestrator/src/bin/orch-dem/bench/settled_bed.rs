@@ -507,7 +507,7 @@ mod tests {
         // few hundred spheres is enough to find any overlap.
         for (i, a) in packing.spheres.iter().enumerate().take(400) {
             for b in &packing.spheres[i + 1..] {
-                let d2: f64 = (0..3)
+                let d2: f64 = (0..3usize)
                     .map(|k| (a.position_m[k] - b.position_m[k]).powi(2))
                     .sum();
                 assert!(d2.sqrt() > a.radius_m + b.radius_m, "{a:?} {b:?}");
@@ -568,7 +568,7 @@ mod tests {
         let lammps = lammps_deck(&bed, &packing);
         let cor = tsuji_restitution(0.6);
         // E* = 5e6 / (2 (1 - 0.09)), G* = 5e6 / (4 · 1.7 · 1.3).
-        let g_star = 5e6 / (4.0 * 1.7 * 1.3);
+        let g_star: f64 = 5e6 / (4.0 * 1.7 * 1.3);
         let x_gamma = (4.0 * g_star / (5e6 / 1.82)).sqrt();
         let pair = format!(
             "pair_coeff * * hertz/material 5000000 {cor} 0.3 damping tsuji tangential mindlin {} {x_gamma} 0.5",

@@ -70,6 +70,7 @@ use crate::insert::{counts_from_mass_fractions, insert, Region};
 use crate::material::{Material, ParticleType};
 use crate::math::{Real, Vec3, STANDARD_GRAVITY_M_S2};
 use crate::mesh::{parse_stl, Motion, WallMesh, WeldedMesh};
+use crate::packing::parse_lammps_data;
 use crate::particles::Particles;
 use crate::simulation::{Config, Simulation};
 use crate::verify::Verify;
@@ -95,6 +96,9 @@ pub struct Case {
     /// Explicit particles present at the start (`[[particles]]`); excludes `insert`.
     #[serde(default)]
     pub particles: Vec<ParticleEntry>,
+    /// Particles at rest at the start, read from a LAMMPS data file (`[packing]`);
+    /// excludes `insert` and `particles`.
+    pub packing: Option<PackingEntry>,
     /// Continuous inflows (`[[inflow]]`), fed while the run goes on.
     #[serde(default)]
     pub inflow: Vec<InflowEntry>,
@@ -309,6 +313,24 @@ pub struct ParticleEntry {
     pub radius: Option<Real>,
 }
 
+/// `[packing]`: the particles present at the start, at rest, from a LAMMPS data file
+/// ([`crate::packing`]) that LAMMPS and LIGGGHTS can read too, so that codes compared
+/// start from the same spheres. Each sphere's type counts from 1 in `[[types]]` order,
+/// and its radius and density must be its type's (to 1 part in 10⁹), so that the
+/// default time step and skin, which follow from the types, hold for it.
+///
+/// ```toml
+/// [packing]
+/// file = "packing.data"           # relative to the case file's folder
+/// ```
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PackingEntry {
+    /// The data file, relative to the case file's folder, read by the caller
+    /// ([`Case::build_from`]).
+    pub file: String,
+}
+
 /// A reference to a particle type: by name, or by number from 1 (the dumps' numbering).
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(untagged)]
@@ -425,6 +447,14 @@ pub enum CaseError {
     /// The air's velocity field file is not a usable grid.
     #[error("`air.velocity_field` ({file}): {message}")]
     AirField {
+        /// File as named in the case.
+        file: String,
+        /// What is wrong, with the line when one line is.
+        message: String,
+    },
+    /// The packing file is not a usable packing for this case.
+    #[error("`packing.file` ({file}): {message}")]
+    Packing {
         /// File as named in the case.
         file: String,
         /// What is wrong, with the line when one line is.
@@ -566,6 +596,20 @@ impl Case {
     }
 
     fn validate_particles(&self) -> Result<(), CaseError> {
+        if let Some(packing) = &self.packing {
+            if self.insert.is_some() || !self.particles.is_empty() {
+                return Err(invalid(
+                    "packing",
+                    "a case takes its initial particles from one place: [packing], [insert] or [[particles]]; remove the others (an [[inflow]] may join any)",
+                ));
+            }
+            if packing.file.trim().is_empty() {
+                return Err(invalid(
+                    "packing.file",
+                    "expected a data file name relative to the case file's folder",
+                ));
+            }
+        }
         if self.insert.is_some() && !self.particles.is_empty() {
             return Err(invalid(
                 "particles",
@@ -802,9 +846,56 @@ impl Case {
         })
     }
 
+    /// The LAMMPS data file `[packing]` names, relative to the case file's folder;
+    /// `None` when the case names none.
+    pub fn packing_file(&self) -> Option<&str> {
+        self.packing.as_ref().map(|p| p.file.as_str())
+    }
+
+    /// The particles of the packing file's text, ids as in the file, each with its
+    /// type's radius and density (which the file's must match).
+    fn packed_particles(&self, types: &[ParticleType], text: &str) -> Result<Particles, CaseError> {
+        let file = self.packing_file().unwrap_or_default();
+        let error = |message: String| CaseError::Packing {
+            file: file.to_string(),
+            message,
+        };
+        let spheres = parse_lammps_data(text).map_err(|e| error(e.to_string()))?;
+        let mut particles = Particles::default();
+        for sphere in spheres {
+            let kind = sphere.kind as usize - 1;
+            let Some(particle_type) = types.get(kind) else {
+                return Err(error(format!(
+                    "particle {} has type {}, but the case has {} types",
+                    sphere.id,
+                    sphere.kind,
+                    types.len()
+                )));
+            };
+            let close = |a: Real, b: Real| (a - b).abs() <= 1e-9 * b.abs();
+            if !close(sphere.radius_m, particle_type.radius_m)
+                || !close(sphere.density_kg_m3, particle_type.density_kg_m3)
+            {
+                return Err(error(format!(
+                    "particle {} has radius {} m and density {} kg/m³, its type {} ({}) {} m and {} kg/m³",
+                    sphere.id,
+                    sphere.radius_m,
+                    sphere.density_kg_m3,
+                    sphere.kind,
+                    self.types[kind].name,
+                    particle_type.radius_m,
+                    particle_type.density_kg_m3
+                )));
+            }
+            particles.push(sphere.id, kind as u16, particle_type, sphere.position_m);
+        }
+        Ok(particles)
+    }
+
     /// Inserts the particles and sets up the simulation among `walls` (built with
     /// [`Case::wall_mesh`], in case order), for a case that names no air velocity
-    /// field (else [`Case::build_with_air_field`]).
+    /// field (else [`Case::build_with_air_field`]) and no packing (else
+    /// [`Case::build_from`]).
     pub fn build(&self, walls: Vec<WallMesh>) -> Result<Simulation, CaseError> {
         self.build_with_air_field(walls, None)
     }
@@ -816,6 +907,32 @@ impl Case {
         walls: Vec<WallMesh>,
         air_field: Option<AirField>,
     ) -> Result<Simulation, CaseError> {
+        self.build_from(walls, air_field, None)
+    }
+
+    /// As [`Case::build_with_air_field`], with the text of the packing file
+    /// [`Case::packing_file`] names: given exactly when the case names one.
+    pub fn build_from(
+        &self,
+        walls: Vec<WallMesh>,
+        air_field: Option<AirField>,
+        packing: Option<&str>,
+    ) -> Result<Simulation, CaseError> {
+        match (self.packing_file(), packing) {
+            (Some(file), None) => {
+                return Err(invalid(
+                    "packing.file",
+                    format!("the case names {file}, but its text was not given; read the file and build with Case::build_from"),
+                ))
+            }
+            (None, Some(_)) => {
+                return Err(invalid(
+                    "packing",
+                    "a packing was given, but the case names none",
+                ))
+            }
+            _ => {}
+        }
         match (self.air_field_file(), &air_field) {
             (Some(file), None) => {
                 return Err(invalid(
@@ -832,7 +949,10 @@ impl Case {
             _ => {}
         }
         let types = self.particle_types();
-        let mut particles = self.explicit_particles(&types)?;
+        let mut particles = match packing {
+            Some(text) => self.packed_particles(&types, text)?,
+            None => self.explicit_particles(&types)?,
+        };
         if let Some(entry) = &self.insert {
             let counts = counts_from_mass_fractions(&types, &entry.mass_fractions, entry.count);
             insert(
@@ -1081,6 +1201,51 @@ radius = 0.0005
         let error = error_of(&format!("{TWO}{insert}"));
         assert!(
             error.starts_with("`particles`: a case places its particles either at random ([insert]) or by hand ([[particles]]), not both"),
+            "{error}"
+        );
+    }
+
+    const PACKING: &str = "LAMMPS data file\n\n2 atoms\n\nAtoms # sphere\n\n3 2 0.004 7800 0 0 0.005\n7 1 0.002 2500 0 0 -0.005\n";
+
+    #[test]
+    fn a_packing_file_gives_particles_at_rest_with_its_ids_and_types() {
+        let case = Case::parse(&format!("{BASE}\n[packing]\nfile = \"bed.data\"\n")).unwrap();
+        assert_eq!(case.packing_file(), Some("bed.data"));
+        let sim = case.build_from(vec![], None, Some(PACKING)).unwrap();
+        assert_eq!(sim.particles.id, [3, 7]);
+        assert_eq!(sim.particles.kind, [1, 0]);
+        assert_eq!(sim.particles.radius_m, [0.002, 0.001]);
+        assert_eq!(sim.particles.position_m[1], Vec3::new(0.0, 0.0, -0.005));
+        assert_eq!(sim.particles.velocity_m_s[0], Vec3::zeros());
+        let missing = case.build(vec![]).unwrap_err().to_string();
+        assert!(
+            missing
+                .starts_with("`packing.file`: the case names bed.data, but its text was not given"),
+            "{missing}"
+        );
+        let wrong = case
+            .build_from(
+                vec![],
+                None,
+                Some(&PACKING.replace("0.002 2500", "0.003 2500")),
+            )
+            .unwrap_err()
+            .to_string();
+        assert_eq!(
+            wrong,
+            "`packing.file` (bed.data): particle 7 has radius 0.0015 m and density 2500 kg/m³, its type 1 (glass) 0.001 m and 2500 kg/m³"
+        );
+        let bad_line = case
+            .build_from(vec![], None, Some(&PACKING.replace("7 1", "2 1")))
+            .unwrap_err()
+            .to_string();
+        assert_eq!(
+            bad_line,
+            "`packing.file` (bed.data): line 8: ids must ascend: 2 follows 3"
+        );
+        let error = error_of(&format!("{TWO}\n[packing]\nfile = \"bed.data\"\n"));
+        assert!(
+            error.starts_with("`packing`: a case takes its initial particles from one place"),
             "{error}"
         );
     }

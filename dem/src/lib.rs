@@ -4,7 +4,7 @@
 //! ([`force`]) with each other and with rigid, possibly moving triangle-mesh walls
 //! ([`mesh`], [`walls`]), and air may drag them ([`air`], blowing uniformly or as a
 //! gridded field, [`air_field`]). [`simulation::Simulation`] advances them by velocity Verlet;
-//! [`insert`] fills a region without overlaps; [`inflow`] feeds a mixture through a
+//! [`insert`] fills a region without overlaps; [`packing`] reads a given packing; [`inflow`] feeds a mixture through a
 //! region at a mass rate over a time window; [`case`] reads the case file format
 //! (TOML) that `orch` renders and [`output`] writes LIGGGHTS-compatible dumps, VTK
 //! files and the sensor's crossings; [`verify`] measures what a verification case
@@ -29,6 +29,7 @@ pub mod math;
 pub mod mesh;
 pub mod neighbour;
 pub mod output;
+pub mod packing;
 pub mod particles;
 pub mod simulation;
 pub mod verify;

@@ -2,7 +2,8 @@
 //!
 //! `orch-dem run CASE.toml` runs a case file rendered from
 //! `templates/native/hopper.toml.tera` (or written by hand); `orch-dem bench` runs the
-//! same hopper on LIGGGHTS and on the native kernel and prints their throughput;
+//! same case on the native kernel, LIGGGHTS and LAMMPS and prints one table of
+//! throughput, ratios and peak memory;
 //! `orch-dem verify [DIR]` runs the kernel's verification cases (`dem/verification/`)
 //! and prints measured against analytic or published values.
 //! It lives in the `orch` package so that `cargo install --path orchestrator`
@@ -41,8 +42,10 @@ enum Command {
         #[arg(long, default_value_t = 1, env = "ORCH_DEM_THREADS")]
         threads: usize,
     },
-    /// Run the same hopper on LIGGGHTS (1 core) and on the native kernel (1 and 2
-    /// threads) back to back and print particle-steps per second and their ratios.
+    /// Run the same case (the hopper, or a settled bed from one packing file) on the
+    /// native kernel and on LIGGGHTS and LAMMPS, on 1 and 2 cores, at one or more
+    /// sizes, back to back, and print one table of particle-steps per second, ratios,
+    /// peak memory and a sanity figure.
     Bench(bench::BenchArgs),
     /// Run every verification case (impacts, Hertz contact time, incline) and print
     /// measured against reference values; exit 1 unless every check passes.

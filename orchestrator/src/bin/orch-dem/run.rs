@@ -1,4 +1,4 @@
-//! `orch-dem run`: reads a case file, its meshes and any air velocity field, runs the
+//! `orch-dem run`: reads a case file, its meshes, any packing and air velocity field, runs the
 //! kernel, looks for the case's stop file, writes the log,
 //! the sensor's crossings and any dumps. All the kernel's I/O happens here.
 
@@ -46,7 +46,7 @@ impl RunSummary {
     }
 }
 
-/// Reads `case_path`, the meshes and the air velocity field it names (relative to its
+/// Reads `case_path`, the meshes, the packing and the air velocity field it names (relative to its
 /// folder) into a ready simulation; bad input is a [`BadCase`] naming the file.
 pub fn load(case_path: &Path) -> anyhow::Result<(Case, Simulation)> {
     let text = std::fs::read_to_string(case_path)
@@ -82,8 +82,20 @@ pub fn load(case_path: &Path) -> anyhow::Result<(Case, Simulation)> {
             Some(case.air_field(&text).map_err(|e| bad(e.to_string()))?)
         }
     };
+    let packing = match case.packing_file() {
+        None => None,
+        Some(file) => {
+            let path = dir.join(file);
+            Some(std::fs::read_to_string(&path).map_err(|e| {
+                bad(format!(
+                    "`packing.file`: cannot read {}: {e}",
+                    path.display()
+                ))
+            })?)
+        }
+    };
     let simulation = case
-        .build_with_air_field(walls, air_field)
+        .build_from(walls, air_field, packing.as_deref())
         .map_err(|e| bad(e.to_string()))?;
     Ok((case, simulation))
 }

@@ -91,6 +91,60 @@ impl Snapshot {
     }
 }
 
+/// The columns of a lean sensor dump that hold each row's state at the snapshot
+/// before (position m, velocity m/s), as LIGGGHTS names the `fix store/state` values.
+pub const PREVIOUS_COLUMNS: [&str; 6] = [
+    "f_sensor_prev[1]",
+    "f_sensor_prev[2]",
+    "f_sensor_prev[3]",
+    "f_sensor_prev[4]",
+    "f_sensor_prev[5]",
+    "f_sensor_prev[6]",
+];
+
+/// The column of a lean sensor dump that is 1 where the snapshot before saw the row's
+/// particle in the sensor band, 0 where it did not.
+pub const PREVIOUS_SEEN_COLUMN: &str = "v_sensor_seen";
+
+impl Snapshot {
+    /// In a lean sensor dump (columns [`PREVIOUS_COLUMNS`] and [`PREVIOUS_SEEN_COLUMN`]),
+    /// each row's sighting at the snapshot before where that snapshot saw it in the
+    /// band, else `None`; `Ok(None)` for a dump without those columns. Needs the
+    /// columns of [`Snapshot::sightings`] too; returns missing names otherwise.
+    pub fn previous_sightings(&self) -> Result<Option<Vec<Option<Sighting>>>, Vec<&'static str>> {
+        let Some(seen) = self.column(PREVIOUS_SEEN_COLUMN) else {
+            return Ok(None);
+        };
+        let previous: Vec<Option<usize>> =
+            PREVIOUS_COLUMNS.iter().map(|n| self.column(n)).collect();
+        let missing: Vec<&'static str> = PREVIOUS_COLUMNS
+            .iter()
+            .zip(&previous)
+            .filter(|(_, i)| i.is_none())
+            .map(|(n, _)| *n)
+            .collect();
+        if !missing.is_empty() {
+            return Err(missing);
+        }
+        let p: Vec<usize> = previous.into_iter().flatten().collect();
+        let width = self.columns.len();
+        let current = self.sightings()?;
+        Ok(Some(
+            self.values
+                .chunks_exact(width)
+                .zip(current)
+                .map(|(row, now)| {
+                    (row[seen] > 0.5).then_some(Sighting {
+                        position_m: [row[p[0]], row[p[1]], row[p[2]]],
+                        velocity_m_per_s: [row[p[3]], row[p[4]], row[p[5]]],
+                        ..now
+                    })
+                })
+                .collect(),
+        ))
+    }
+}
+
 /// What was read from a whole file.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct DumpSummary {

@@ -431,6 +431,14 @@ pub static PARAMETERS: &[ParameterSpec] = &[
         "steps between snapshots of every particle (post/dump<step>.liggghts, LIGGGHTS dump custom text); 0 = none",
     ),
     spec(
+        "vtk_every",
+        0.0,
+        "steps",
+        0.0,
+        1e9,
+        "steps between ParaView snapshots of every particle (post/particles_<step>.vtk, legacy VTK polydata with id, type, radius, velocity, angular velocity); 0 = none; native and LIGGGHTS only",
+    ),
+    spec(
         "pour_rate",
         0.0,
         "kg/s",
@@ -550,6 +558,13 @@ pub fn context(case: &Case) -> Context {
         ("sensor_z", sensor_z),
         ("sensor_band_top", sensor_z + SENSOR_BAND_M),
         ("sensor_band_bottom", sensor_z - SENSOR_BAND_M),
+        // Heights within this of the sensor plane may print onto it with the six
+        // significant digits of LIGGGHTS's dumps (half a unit in the sixth digit of
+        // heights up to |z| + band).
+        (
+            "sensor_ambiguity",
+            1e-5 * (sensor_z.abs() + SENSOR_BAND_M) + 1e-12,
+        ),
         ("delete_z", delete_z),
         ("vibration_period", 1.0 / case.get("frequency").max(1e-12)),
     ];
@@ -583,6 +598,7 @@ pub fn context(case: &Case) -> Context {
     );
     context.insert("n_particles_int", &(case.get("n_particles").round() as u64));
     context.insert("dump_every_int", &(case.get("dump_every").round() as u64));
+    context.insert("vtk_every_int", &(case.get("vtk_every").round() as u64));
     context.insert(
         "sensor_every_int",
         &(case.get("sensor_every").round() as u64),

@@ -722,6 +722,7 @@ impl<E: Executor> Driver<'_, E> {
                 }
                 self.report_success(job, &results);
                 self.store.mark_succeeded(job.id, 0, &results).await?;
+                self.prune(job);
                 if job.stage_kind() == Some(AIR_STAGE) {
                     if let Some(line) = self.settle_coupling(job, &results).await? {
                         self.report(job, &line);
@@ -734,6 +735,30 @@ impl<E: Executor> Driver<'_, E> {
             }
         }
         Ok(())
+    }
+
+    /// Prunes the run directory of a job whose results are stored, as the study's
+    /// `keep:` says. The CFD stage of a coupled study keeps at most `results`: the next
+    /// DEM run in air reads its air from that directory. A directory that cannot be
+    /// pruned is reported, and the study goes on.
+    fn prune(&self, job: &JobRow) {
+        let coupled_stage =
+            self.study.coupling.is_some() && job.stage_kind().is_some_and(|kind| kind != AIR_STAGE);
+        let keep = match self.study.keep {
+            crate::keep::Keep::None if coupled_stage => crate::keep::Keep::Results,
+            keep => keep,
+        };
+        let run_dir = Path::new(&job.run_dir);
+        if let Err(e) = crate::keep::prune(run_dir, keep, &self.log_file(job)) {
+            self.report(
+                job,
+                &format!(
+                    "keep: {} could not prune {}: {e}",
+                    keep.name(),
+                    run_dir.display()
+                ),
+            );
+        }
     }
 
     /// Ctrl-C / SIGTERM: local jobs are stopped and put back; jobs on a batch

@@ -15,6 +15,7 @@ pub mod driver;
 pub mod executor;
 pub mod exit_codes;
 pub mod export;
+pub mod keep;
 pub mod noise;
 pub mod output;
 pub mod progress;

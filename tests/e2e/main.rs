@@ -17,6 +17,7 @@ mod faults;
 mod native;
 mod noise;
 mod openfoam;
+mod outputs;
 mod pipes;
 mod pour;
 mod real_liggghts;

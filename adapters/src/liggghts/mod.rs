@@ -103,7 +103,7 @@ fn parse(case: &Case, sensor: &SensorPlane, run_dir: &Path) -> Result<Observatio
 
     let dt = case.get("timestep");
     let (reader, dump_path) = open(SENSOR_DUMP)?;
-    let crossings = crossings_in_dump(reader, &dump_path, dt, sensor)?;
+    let crossings = crossings_in_dump(reader, &dump_path, dt, sensor_every(case), sensor)?;
     if let Some(sink_mass) = log.sink_mass_kg {
         crossings_cover_sink(&crossings, sink_mass, &dump_path)?;
     }
@@ -137,6 +137,7 @@ fn parse_running(
         std::io::Cursor::new(text),
         &dump_path,
         case.get("timestep"),
+        sensor_every(case),
         sensor,
     )?;
     Ok(Observations {
@@ -145,22 +146,54 @@ fn parse_running(
     })
 }
 
+/// Steps between sensor snapshots (`sensor_every`).
+fn sensor_every(case: &Case) -> u64 {
+    case.get("sensor_every").round() as u64
+}
+
 /// Each particle's crossing of `sensor` from the sightings in a sensor dump whose
-/// time step number times `dt_s` gives the time.
+/// time step number times `dt_s` gives the time, `every` steps apart.
+///
+/// Reads both forms of the dump: every particle in the band at every snapshot, or the
+/// lean form the hopper deck writes, where a particle appears at the snapshot that
+/// first sees it below the plane with its state at the snapshot before (see
+/// [`crate::dump::PREVIOUS_COLUMNS`]). The detector then sees, per particle, the same
+/// last sighting above and first below as in the full band, so the crossings are the
+/// same. The first snapshot's previous states are not sightings (nothing was stored
+/// before it) and are ignored.
 fn crossings_in_dump(
     reader: impl std::io::BufRead,
     path: &Path,
     dt_s: f64,
+    every: u64,
     sensor: &SensorPlane,
 ) -> Result<Vec<orch_granular::Crossing>, ParseError> {
     let mut detector = CrossingDetector::new(sensor.height_m);
+    let mut first = true;
     read_dump(reader, path, |snapshot| {
-        let sightings = snapshot.sightings().map_err(|missing| {
+        let lacks = |missing: Vec<&str>| {
             format!("the sensor dump lacks the columns {}", missing.join(", "))
-        })?;
-        for sighting in sightings {
-            detector.observe(snapshot.timestep as f64 * dt_s, sighting);
+        };
+        let sightings = snapshot.sightings().map_err(lacks)?;
+        let previous = snapshot.previous_sightings().map_err(lacks)?;
+        let now_s = snapshot.timestep as f64 * dt_s;
+        match previous {
+            Some(previous) => {
+                let before_s = snapshot.timestep.saturating_sub(every) as f64 * dt_s;
+                for (sighting, before) in sightings.into_iter().zip(previous) {
+                    if let Some(before) = before.filter(|_| !first) {
+                        detector.observe(before_s, before);
+                    }
+                    detector.observe(now_s, sighting);
+                }
+            }
+            None => {
+                for sighting in sightings {
+                    detector.observe(now_s, sighting);
+                }
+            }
         }
+        first = false;
         Ok(())
     })?;
     Ok(detector.finish())

@@ -87,6 +87,11 @@ pub struct StudyFile {
     /// discharge_rate, tolerance: 0.01}`); needs the `cfd` stage.
     #[serde(default)]
     pub coupling: Option<CouplingFile>,
+    /// What a succeeded job's run directory keeps once its results are stored: `all`
+    /// (default), `results` (no particle dumps or VTK files) or `none` (a small
+    /// record); failed jobs keep everything.
+    #[serde(default)]
+    pub keep: crate::keep::Keep,
 }
 
 /// `coupling:` of a study: the staggered DEM ↔ air iteration.

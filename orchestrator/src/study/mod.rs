@@ -339,6 +339,8 @@ pub struct Study {
     /// True when a run without a response the study asks for fails (`missing_response:
     /// fail`); else it succeeds with why in status.
     pub fail_on_missing_response: bool,
+    /// What a succeeded job's run directory keeps once its results are stored (`keep:`).
+    pub keep: crate::keep::Keep,
     /// Stages chained after every design job, in the order of [`orch_adapters::STAGES`].
     pub stages: Vec<StageConfig>,
     /// When a design job is asked to stop before its end time (`stop_when:`).
@@ -1429,6 +1431,7 @@ impl Checker<'_> {
             coupling,
             fail_on_missing_response: file.missing_response
                 == Some(file::MissingResponseFile::Fail),
+            keep: file.keep,
             file_text: text.to_string(),
             inputs,
             file_sha256,

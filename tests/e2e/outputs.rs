@@ -1,0 +1,153 @@
+//! Lean outputs (issue 14): `keep: results` leaves a succeeded run directory without
+//! particle snapshots but with what the parsers read and its responses stored, and
+//! `vtk_every` writes legacy VTK files ParaView opens, on the native kernel with 300
+//! particles (a few seconds).
+
+use std::path::{Path, PathBuf};
+
+use crate::support::{count, solver_lock, text, Project};
+
+const PARTICLES: usize = 300;
+
+fn study(name: &str, keep: &str) -> String {
+    format!(
+        r#"
+name: {name}
+solver: native
+executor: {{max_parallel: 1}}
+factors:
+  - {{name: outlet_diameter, min: 0.024, max: 0.025, unit: m}}
+fixed:
+  n_particles: {PARTICLES}
+  fill_time: 0.05
+  discharge_time: 0.15
+  dump_every: 2000
+  vtk_every: 2000
+design: {{type: full_factorial, levels: 2}}
+seed: 3
+responses: [discharge_rate]
+keep: {keep}
+"#
+    )
+}
+
+fn run_dirs(project: &Project, study: &str) -> Vec<PathBuf> {
+    project
+        .query(&format!(
+            "SELECT j.run_dir FROM jobs j JOIN studies s ON s.id = j.study_id WHERE s.name = '{study}' ORDER BY j.id"
+        ))
+        .into_iter()
+        .map(|row| PathBuf::from(&row[0]))
+        .collect()
+}
+
+/// Every file under `dir`, relative.
+fn files(dir: &Path) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for entry in std::fs::read_dir(&d).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                stack.push(path);
+            } else {
+                out.push(path.strip_prefix(dir).unwrap().display().to_string());
+            }
+        }
+    }
+    out.sort();
+    out
+}
+
+fn submit(project: &Project, name: &str, keep: &str) {
+    let file = project.write(&format!("{name}.yaml"), &study(name, keep));
+    let output = project.run(&["submit", file.to_str().unwrap()]);
+    assert_eq!(output.status.code(), Some(0), "{}", text(&output.stderr));
+    let status = project.status(name);
+    assert_eq!(count(&status, "succeeded"), 2, "{status:#}");
+}
+
+/// The number of points of a legacy VTK polydata file, after checking its header, that
+/// it holds that many coordinates, one vertex per point and point data for each.
+fn vtk_points(path: &Path) -> usize {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    assert!(
+        lines.next().unwrap().starts_with("# vtk DataFile Version "),
+        "{}",
+        path.display()
+    );
+    lines.next().unwrap(); // title
+    assert_eq!(lines.next(), Some("ASCII"));
+    assert_eq!(lines.next(), Some("DATASET POLYDATA"));
+    let words: Vec<&str> = lines.flat_map(str::split_whitespace).collect();
+    let at = |key: &str| words.iter().position(|w| *w == key).unwrap();
+    let n: usize = words[at("POINTS") + 1].parse().unwrap();
+    let coordinates: Vec<f64> = words[at("POINTS") + 3..at("VERTICES")]
+        .iter()
+        .map(|w| w.parse().unwrap())
+        .collect();
+    assert_eq!(coordinates.len(), 3 * n, "{}", path.display());
+    assert_eq!(words[at("VERTICES") + 1], n.to_string());
+    assert_eq!(words[at("POINT_DATA") + 1], n.to_string());
+    n
+}
+
+#[test]
+fn keep_results_leaves_no_snapshots_and_the_responses_stored() {
+    let _lock = solver_lock();
+    let project = Project::new();
+    submit(&project, "lean-results", "results");
+    for dir in run_dirs(&project, "lean-results") {
+        let left = files(&dir);
+        assert!(
+            !left
+                .iter()
+                .any(|f| f.ends_with(".vtk") || f.ends_with(".liggghts")),
+            "{}: {left:?}",
+            dir.display()
+        );
+        for kept in [
+            "hopper.toml",
+            "log.native",
+            "post/crossings.csv",
+            "orch-kept.txt",
+        ] {
+            assert!(left.iter().any(|f| f == kept), "{kept} in {left:?}");
+        }
+        let record = std::fs::read_to_string(dir.join("orch-kept.txt")).unwrap();
+        assert!(record.starts_with("keep: results removed "), "{record}");
+    }
+    let stored = project.query(
+        "SELECT COUNT(*) FROM responses r JOIN jobs j ON j.id = r.job_id WHERE r.name = 'discharge_rate'",
+    );
+    assert_eq!(stored[0][0], "2");
+}
+
+#[test]
+fn vtk_every_writes_legacy_vtk_files_of_every_particle() {
+    let _lock = solver_lock();
+    let project = Project::new();
+    submit(&project, "lean-vtk", "all");
+    for dir in run_dirs(&project, "lean-vtk") {
+        let vtk: Vec<String> = files(&dir)
+            .into_iter()
+            .filter(|f| f.ends_with(".vtk"))
+            .collect();
+        assert!(vtk.len() >= 2, "{vtk:?}");
+        // The first snapshot, before any particle left, holds them all.
+        let first = vtk
+            .iter()
+            .min_by_key(|f| {
+                f.trim_start_matches("post/particles_")
+                    .trim_end_matches(".vtk")
+                    .parse::<u64>()
+                    .unwrap()
+            })
+            .unwrap();
+        assert_eq!(vtk_points(&dir.join(first)), PARTICLES, "{first}");
+        for file in &vtk {
+            assert!(vtk_points(&dir.join(file)) <= PARTICLES);
+        }
+    }
+}

@@ -170,7 +170,10 @@ fn check_vtk_snapshots(project: &Project, study: &str) {
             .collect();
         assert!(vtk.len() >= 2, "{vtk:?}");
         let points: Vec<usize> = vtk.iter().map(|f| vtk_points(&dir.join(f))).collect();
-        assert!(points.iter().all(|&n| n <= PARTICLES), "{vtk:?}: {points:?}");
+        assert!(
+            points.iter().all(|&n| n <= PARTICLES),
+            "{vtk:?}: {points:?}"
+        );
         assert!(points.contains(&PARTICLES), "{vtk:?}: {points:?}");
     }
 }

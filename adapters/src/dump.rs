@@ -191,10 +191,20 @@ pub fn read_dump<R: BufRead>(
         }
         let header = lines.required("ITEM: ATOMS")?;
         lines.expect_item(&header, "ITEM: ATOMS")?;
+        let earlier = std::mem::take(&mut snapshot.columns);
         snapshot.columns = header["ITEM: ATOMS".len()..]
             .split_whitespace()
             .map(str::to_string)
             .collect();
+        // The last line of the file naming fewer columns than the snapshot before: the
+        // file was cut inside it (a lean dump's snapshots are mostly headers).
+        if atoms == 0 && lines.at_end() && snapshot.columns.len() < earlier.len() {
+            return Err(lines.malformed(format!(
+                "`ITEM: ATOMS` names {} columns where the snapshot before named {}, and the file ends there (truncated dump?)",
+                snapshot.columns.len(),
+                earlier.len()
+            )));
+        }
         if snapshot.columns.is_empty() {
             return Err(lines.malformed("`ITEM: ATOMS` names no columns".into()));
         }
@@ -384,6 +394,16 @@ ITEM: ATOMS id type radius mass x y z vx vy vz
         assert_eq!(
             error,
             "post/sensor.liggghts:11: file ends where atom 2 of 2 of the snapshot at time step 100 was expected (truncated dump?)"
+        );
+    }
+
+    #[test]
+    fn a_header_cut_at_the_end_of_the_file_is_a_truncated_dump() {
+        let end = TWO_SNAPSHOTS.rfind(" vx vy vz").unwrap();
+        let error = read(&TWO_SNAPSHOTS[..end]).unwrap_err().to_string();
+        assert_eq!(
+            error,
+            "post/sensor.liggghts:20: `ITEM: ATOMS` names 7 columns where the snapshot before named 10, and the file ends there (truncated dump?)"
         );
     }
 

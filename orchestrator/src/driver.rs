@@ -171,8 +171,10 @@ async fn drive_with<E: Executor>(
         driver
             .apply(&jobs.iter().collect::<Vec<_>>(), actions)
             .await?;
-        driver.show_progress().await?;
-        if decide::is_finished(&jobs) {
+        let finished = decide::is_finished(&jobs);
+        // The bar's last state is the round's end, however soon it came.
+        driver.show_progress(finished).await?;
+        if finished {
             break Ending::Finished;
         }
     };
@@ -814,13 +816,13 @@ impl<E: Executor> Driver<'_, E> {
     }
 
     /// Updates the bar, when there is one, with where the latest round stands, at most
-    /// every [`PROGRESS_EVERY`]: it counts every job of the round, finished ones too.
-    async fn show_progress(&mut self) -> Result<(), DriverError> {
-        if !self.progress.is_shown()
-            || self
-                .last_progress
-                .is_some_and(|last| last.elapsed() < PROGRESS_EVERY)
-        {
+    /// every [`PROGRESS_EVERY`] unless `now`: it counts every job of the round, finished
+    /// ones too.
+    async fn show_progress(&mut self, now: bool) -> Result<(), DriverError> {
+        let recent = self
+            .last_progress
+            .is_some_and(|last| last.elapsed() < PROGRESS_EVERY);
+        if !self.progress.is_shown() || (recent && !now) {
             return Ok(());
         }
         self.last_progress = Some(Instant::now());

@@ -65,17 +65,6 @@ fn responses(status: &Value) -> Vec<(String, serde_json::Map<String, Value>)> {
     jobs
 }
 
-/// The run directories of a study's jobs.
-fn run_dirs(project: &Project, study: &str) -> Vec<PathBuf> {
-    project
-        .query(&format!(
-            "SELECT j.run_dir FROM jobs j JOIN studies s ON s.id = j.study_id WHERE s.name = '{study}' ORDER BY j.id"
-        ))
-        .into_iter()
-        .map(|row| PathBuf::from(&row[0]))
-        .collect()
-}
-
 #[test]
 fn liggghts_on_two_mpi_ranks_here_and_across_two_slurm_nodes_discharges_like_one_rank() {
     if !require_liggghts() {
@@ -92,14 +81,14 @@ fn liggghts_on_two_mpi_ranks_here_and_across_two_slurm_nodes_discharges_like_one
         "LIGGGHTS, 2 runs of 1000 particles: 1 rank {one_wall:.1} s, 2 ranks {two_wall:.1} s wall"
     );
 
-    for dir in run_dirs(&project, "liggghts-2") {
+    for dir in project.run_dirs("liggghts-2") {
         let log = std::fs::read_to_string(dir.join("log.liggghts")).unwrap();
         assert!(log.contains("1 by 1 by 2 MPI processor grid"), "{log}");
         assert!(log.contains(" on 2 procs for "), "{log}");
         let deck = std::fs::read_to_string(dir.join("hopper.in")).unwrap();
         assert!(deck.contains("\nprocessors      1 1 2\n"), "{deck}");
     }
-    for dir in run_dirs(&project, "liggghts-1") {
+    for dir in project.run_dirs("liggghts-1") {
         let log = std::fs::read_to_string(dir.join("log.liggghts")).unwrap();
         assert!(log.contains(" on 1 procs for "), "{log}");
     }
@@ -182,7 +171,7 @@ fn the_native_kernel_on_two_threads_gives_the_responses_of_one_bit_for_bit() {
         );
     }
     for (study, threads) in [("native-1", 1), ("native-2", 2)] {
-        for dir in run_dirs(&project, study) {
+        for dir in project.run_dirs(study) {
             let log = std::fs::read_to_string(dir.join("log.native")).unwrap();
             assert!(
                 log.contains(&format!(" on {threads} threads for ")),

@@ -3,7 +3,7 @@
 //! `vtk_every` writes legacy VTK files ParaView opens, on the native kernel and on
 //! LIGGGHTS with 300 particles (a few seconds each).
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use crate::support::{count, require_liggghts, solver_lock, text, Project};
 
@@ -29,16 +29,6 @@ responses: [discharge_rate]
 keep: {keep}
 "#
     )
-}
-
-fn run_dirs(project: &Project, study: &str) -> Vec<PathBuf> {
-    project
-        .query(&format!(
-            "SELECT j.run_dir FROM jobs j JOIN studies s ON s.id = j.study_id WHERE s.name = '{study}' ORDER BY j.id"
-        ))
-        .into_iter()
-        .map(|row| PathBuf::from(&row[0]))
-        .collect()
 }
 
 /// Every file under `dir`, relative.
@@ -113,7 +103,7 @@ fn keep_results_leaves_no_snapshots_and_the_responses_stored() {
     let _lock = solver_lock();
     let project = Project::new();
     submit(&project, "lean-results", "results");
-    for dir in run_dirs(&project, "lean-results") {
+    for dir in project.run_dirs("lean-results") {
         let left = files(&dir);
         assert!(
             !left
@@ -163,7 +153,7 @@ fn vtk_every_on_liggghts_writes_legacy_vtk_files_of_every_particle() {
 /// every particle, and one, once the fill is in and before any left, with all of them
 /// (the native kernel's first; LIGGGHTS inserts after its step 0, which is empty).
 fn check_vtk_snapshots(project: &Project, study: &str) {
-    for dir in run_dirs(project, study) {
+    for dir in project.run_dirs(study) {
         let vtk: Vec<String> = files(&dir)
             .into_iter()
             .filter(|f| f.ends_with(".vtk") && !f.contains("boundingBox"))

@@ -249,6 +249,16 @@ impl Project {
         });
     }
 
+    /// The run directories of the jobs of `study`, in job order.
+    pub fn run_dirs(&self, study: &str) -> Vec<PathBuf> {
+        self.query(&format!(
+            "SELECT j.run_dir FROM jobs j JOIN studies s ON s.id = j.study_id WHERE s.name = '{study}' ORDER BY j.id"
+        ))
+        .into_iter()
+        .map(|row| PathBuf::from(&row[0]))
+        .collect()
+    }
+
     /// Rows of a query against the project's store.
     pub fn query(&self, sql: &str) -> Vec<Vec<String>> {
         let url = format!(

@@ -403,33 +403,22 @@ fn settled_bed_run(
                 format!("post/dump{}.liggghts", bed.steps),
             )
         }
-        Code::Peer(Peer::Liggghts) => {
-            write("bed.in", settled_bed::liggghts_deck(bed, packing, cores))?;
+        Code::Peer(peer) => {
+            let deck = match peer {
+                Peer::Liggghts => settled_bed::liggghts_deck(bed, packing, cores),
+                Peer::Lammps => settled_bed::lammps_deck(bed, packing),
+            };
+            write("bed.in", deck)?;
+            let (program, log, dump) = match peer {
+                Peer::Liggghts => ("liggghts", "log.liggghts", "liggghts"),
+                Peer::Lammps => ("lmp", "log.lammps", "lammps"),
+            };
             let (program, args) = launcher(
-                "liggghts",
-                &["-in", "bed.in", "-log", "log.liggghts", "-echo", "none"],
+                program,
+                &["-in", "bed.in", "-log", log, "-echo", "none"],
                 cores,
             );
-            (
-                program,
-                args,
-                "log.liggghts",
-                format!("post/dump{}.liggghts", bed.steps),
-            )
-        }
-        Code::Peer(Peer::Lammps) => {
-            write("bed.in", settled_bed::lammps_deck(bed, packing))?;
-            let (program, args) = launcher(
-                "lmp",
-                &["-in", "bed.in", "-log", "log.lammps", "-echo", "none"],
-                cores,
-            );
-            (
-                program,
-                args,
-                "log.lammps",
-                format!("post/dump{}.lammps", bed.steps),
-            )
+            (program, args, log, format!("post/dump{}.{dump}", bed.steps))
         }
     };
     let finished = run_child(

@@ -1124,16 +1124,18 @@ radius = 0.0005
     fn explicit_particles_keep_their_state_type_and_radius() {
         let case = Case::parse(&format!("{BASE}{TWO}")).unwrap();
         let sim = case.build(vec![]).unwrap();
+        // The stepper keeps particles in its own order: look them up by id.
         let p = &sim.particles;
-        assert_eq!(p.id, [1, 2]);
-        assert_eq!(p.kind, [1, 0]);
-        assert_eq!(p.position_m[0], Vec3::new(0.0, 0.0, 0.005));
-        assert_eq!(p.velocity_m_s[0], Vec3::new(0.0, 0.0, -1.0));
-        assert_eq!(p.angular_velocity[0], Vec3::new(0.0, 20.0, 0.0));
-        assert_eq!(p.radius_m, [0.002, 0.0005]);
+        assert_eq!(p.len(), 2);
+        let (first, second) = (p.index_of(1).unwrap(), p.index_of(2).unwrap());
+        assert_eq!((p.kind[first], p.kind[second]), (1, 0));
+        assert_eq!(p.position_m[first], Vec3::new(0.0, 0.0, 0.005));
+        assert_eq!(p.velocity_m_s[first], Vec3::new(0.0, 0.0, -1.0));
+        assert_eq!(p.angular_velocity[first], Vec3::new(0.0, 20.0, 0.0));
+        assert_eq!((p.radius_m[first], p.radius_m[second]), (0.002, 0.0005));
         let glass = 4.0 / 3.0 * std::f64::consts::PI * 0.0005f64.powi(3) * 2500.0;
-        assert!((p.mass_kg[1] - glass).abs() < 1e-15);
-        assert_eq!(p.velocity_m_s[1], Vec3::zeros());
+        assert!((p.mass_kg[second] - glass).abs() < 1e-15);
+        assert_eq!(p.velocity_m_s[second], Vec3::zeros());
     }
 
     #[test]
@@ -1212,11 +1214,14 @@ radius = 0.0005
         let case = Case::parse(&format!("{BASE}\n[packing]\nfile = \"bed.data\"\n")).unwrap();
         assert_eq!(case.packing_file(), Some("bed.data"));
         let sim = case.build_from(vec![], None, Some(PACKING)).unwrap();
-        assert_eq!(sim.particles.id, [3, 7]);
-        assert_eq!(sim.particles.kind, [1, 0]);
-        assert_eq!(sim.particles.radius_m, [0.002, 0.001]);
-        assert_eq!(sim.particles.position_m[1], Vec3::new(0.0, 0.0, -0.005));
-        assert_eq!(sim.particles.velocity_m_s[0], Vec3::zeros());
+        // The stepper keeps particles in its own order: look them up by id.
+        let p = &sim.particles;
+        let (three, seven) = (p.index_of(3).unwrap(), p.index_of(7).unwrap());
+        assert_eq!(p.len(), 2);
+        assert_eq!((p.kind[three], p.kind[seven]), (1, 0));
+        assert_eq!((p.radius_m[three], p.radius_m[seven]), (0.002, 0.001));
+        assert_eq!(p.position_m[seven], Vec3::new(0.0, 0.0, -0.005));
+        assert_eq!(p.velocity_m_s[three], Vec3::zeros());
         let missing = case.build(vec![]).unwrap_err().to_string();
         assert!(
             missing

@@ -2,11 +2,18 @@
 //! plus a skin, kept until some particle has moved half the skin.
 //!
 //! The list is a half list in compressed rows (pairs `(i, j)` with `i < j`, row `i`
-//! sorted by `j`). Each pair carries its tangential history, which survives rebuilds
-//! and particle removal (rows are matched by particle id), as rapier's narrow phase
-//! keeps persistent contact pairs. A reverse index lets each particle gather the forces
-//! of the pairs it is the second member of, so the sum over a particle's contacts runs
-//! in a fixed order whatever the number of threads.
+//! sorted by `j`). Each pair carries its tangential history, which survives rebuilds,
+//! particle removal and reordering (a new pair finds its old slot through each
+//! member's former index), as rapier's narrow phase keeps persistent contact pairs. A
+//! reverse index lets each particle gather the forces of the pairs it is the second
+//! member of, so the sum over a particle's contacts runs in a fixed order whatever the
+//! number of threads.
+//!
+//! At each rebuild the stepper sorts the particles along a Morton (Z-order) curve over
+//! the cells ([`CurveOrder`]): a particle's partners then sit a few cache lines from
+//! it instead of anywhere in memory, which is what keeps the cost per particle-step
+//! from growing with the number of particles (LAMMPS's `atom_modify sort` does the
+//! same).
 
 use rayon::prelude::*;
 
@@ -99,6 +106,75 @@ impl CellGrid {
     }
 }
 
+/// `x`'s low 21 bits spread to every third bit.
+fn spread_bits(x: u64) -> u64 {
+    let mut x = x & 0x1f_ffff;
+    x = (x | x << 32) & 0x1f_0000_0000_ffff;
+    x = (x | x << 16) & 0x1f_0000_ff00_00ff;
+    x = (x | x << 8) & 0x100f_00f0_0f00_f00f;
+    x = (x | x << 4) & 0x10c3_0c30_c30c_30c3;
+    x = (x | x << 2) & 0x1249_2492_4924_9249;
+    x
+}
+
+/// The Morton (Z-order) code of cell coordinates: their bits interleaved, so that
+/// cells close in space mostly have close codes.
+pub fn morton_code(c: [usize; 3]) -> u64 {
+    spread_bits(c[0] as u64) | spread_bits(c[1] as u64) << 1 | spread_bits(c[2] as u64) << 2
+}
+
+/// The cells of a grid ranked along a Morton curve, to sort particles by.
+#[derive(Debug, Clone, Default)]
+pub struct CurveOrder {
+    rank: Vec<u32>,
+}
+
+impl CurveOrder {
+    /// Ranks `grid`'s cells by their Morton code.
+    pub fn new(grid: &CellGrid) -> Self {
+        let coords = |cell: usize| {
+            [
+                cell % grid.dims[0],
+                (cell / grid.dims[0]) % grid.dims[1],
+                cell / (grid.dims[0] * grid.dims[1]),
+            ]
+        };
+        let mut cells: Vec<u32> = (0..grid.len() as u32).collect();
+        cells.sort_unstable_by_key(|&c| morton_code(coords(c as usize)));
+        let mut rank = vec![0u32; grid.len()];
+        for (r, &c) in cells.iter().enumerate() {
+            rank[c as usize] = r as u32;
+        }
+        Self { rank }
+    }
+
+    /// The indices `members` (ascending) sorted by the curve rank of their particle's
+    /// cell, ties kept in index order (a counting sort: linear in the particles and
+    /// cells, and the same whatever the number of threads).
+    pub fn sort(&self, grid: &CellGrid, positions: &[Vec3], members: &[u32]) -> Vec<u32> {
+        let rank_of: Vec<u32> = members
+            .iter()
+            .map(|&i| self.rank[grid.index(grid.coords(positions[i as usize]))])
+            .collect();
+        let mut start = vec![0u32; self.rank.len() + 1];
+        for &r in &rank_of {
+            start[r as usize + 1] += 1;
+        }
+        for r in 0..self.rank.len() {
+            start[r + 1] += start[r];
+        }
+        let mut sorted = vec![0u32; members.len()];
+        for (&i, &r) in members.iter().zip(&rank_of) {
+            sorted[start[r as usize] as usize] = i;
+            start[r as usize] += 1;
+        }
+        sorted
+    }
+}
+
+/// Marks a particle that has no former index (it was inserted since the last build).
+pub const NEW_PARTICLE: u32 = u32::MAX;
+
 /// Particles sorted by cell, for neighbour queries (counting sort).
 #[derive(Debug, Clone, Default)]
 pub struct CellBins {
@@ -165,11 +241,21 @@ impl PairList {
         self.partner.is_empty()
     }
 
+    /// The tangential history of particle `i` against particle `j`, m, when the list
+    /// holds that pair. The list stores it once, under the lower index, as the first
+    /// member's history against the second; the other way round it is the opposite
+    /// vector (exactly: negation rounds nothing).
+    pub fn history(&self, i: u32, j: u32) -> Option<Vec3> {
+        let (first, second, sign) = if i < j { (i, j, 1.0) } else { (j, i, -1.0) };
+        let row = self.row_start.get(first as usize..first as usize + 2)?;
+        let (start, end) = (row[0] as usize, row[1] as usize);
+        let k = self.partner[start..end].binary_search(&second).ok()?;
+        Some(sign * self.shear_m[start + k])
+    }
+
     /// Builds the list of pairs within `radius_i + radius_j + skin_m` and carries the
     /// tangential history over from `previous`, whose particle `former[i]` is this
-    /// list's particle `i` (`ids` are the current particle ids, `former_ids` those of
-    /// the previous list's particles).
-    #[allow(clippy::too_many_arguments)]
+    /// list's particle `i` ([`NEW_PARTICLE`] for a particle `previous` did not have).
     pub fn build(
         grid: &CellGrid,
         positions: &[Vec3],
@@ -177,8 +263,6 @@ impl PairList {
         skin_m: Real,
         previous: &PairList,
         former: &[u32],
-        ids: &[u32],
-        former_ids: &[u32],
     ) -> Self {
         let n = positions.len();
         let bins = CellBins::build(grid, positions);
@@ -232,7 +316,7 @@ impl PairList {
             fill[i as usize] += 1;
         }
         let mut shear_m = vec![Vec3::zeros(); total];
-        // Sort rows and carry history: the previous row of the same particle, by id.
+        // Sort rows and carry history over from the pair of the same two particles.
         let mut row_slices = Vec::with_capacity(n);
         let (mut partner_rest, mut shear_rest) = (&mut partner[..], &mut shear_m[..]);
         for i in 0..n {
@@ -245,21 +329,15 @@ impl PairList {
         }
         row_slices.into_par_iter().for_each(|(i, row, shear)| {
             row.sort_unstable();
-            let Some(&f) = former.get(i) else { return };
-            let f = f as usize;
-            if f + 1 >= previous.row_start.len() {
+            let Some(&fi) = former.get(i).filter(|&&f| f != NEW_PARTICLE) else {
                 return;
-            }
-            let base = previous.row_start[f] as usize;
-            let old_row = &previous.partner[base..previous.row_start[f + 1] as usize];
-            let mut cursor = 0;
+            };
             for (slot, &j) in row.iter().enumerate() {
-                let id = ids[j as usize];
-                while cursor < old_row.len() && former_ids[old_row[cursor] as usize] < id {
-                    cursor += 1;
-                }
-                if cursor < old_row.len() && former_ids[old_row[cursor] as usize] == id {
-                    shear[slot] = previous.shear_m[base + cursor];
+                let Some(&fj) = former.get(j as usize).filter(|&&f| f != NEW_PARTICLE) else {
+                    continue;
+                };
+                if let Some(history) = previous.history(fi, fj) {
+                    shear[slot] = history;
                 }
             }
         });
@@ -300,9 +378,8 @@ mod tests {
         fn cell_list_equals_brute_force(points in proptest::collection::vec((0.0..0.05f64, 0.0..0.05f64, 0.0..0.05f64), 2..120)) {
             let positions: Vec<Vec3> = points.iter().map(|&(x, y, z)| Vec3::new(x, y, z)).collect();
             let radii: Vec<Real> = (0..positions.len()).map(|i| if i % 3 == 0 { 0.002 } else { 0.001 }).collect();
-            let ids: Vec<u32> = (1..=positions.len() as u32).collect();
             let grid = CellGrid::new(Vec3::zeros(), Vec3::new(0.05, 0.05, 0.05), 0.005);
-            let list = PairList::build(&grid, &positions, &radii, 0.001, &PairList::default(), &[], &ids, &[]);
+            let list = PairList::build(&grid, &positions, &radii, 0.001, &PairList::default(), &[]);
             let mut expected = Vec::new();
             for i in 0..positions.len() {
                 for j in i + 1..positions.len() {
@@ -330,10 +407,40 @@ mod tests {
             }
             prop_assert_eq!(reverse, list.len());
         }
+        /// Sorting along the curve is a permutation, and particles of one cell end up
+        /// side by side in ascending index order.
+        #[test]
+        fn curve_sort_permutes_and_groups_cells(points in proptest::collection::vec((-0.01..0.06f64, 0.0..0.05f64, 0.0..0.05f64), 1..200)) {
+            let positions: Vec<Vec3> = points.iter().map(|&(x, y, z)| Vec3::new(x, y, z)).collect();
+            let grid = CellGrid::new(Vec3::zeros(), Vec3::new(0.05, 0.05, 0.05), 0.005);
+            let curve = CurveOrder::new(&grid);
+            let all: Vec<u32> = (0..positions.len() as u32).collect();
+            let sorted = curve.sort(&grid, &positions, &all);
+            let mut seen = sorted.clone();
+            seen.sort_unstable();
+            prop_assert_eq!(&seen, &all);
+            let cell = |i: u32| grid.index(grid.coords(positions[i as usize]));
+            for w in sorted.windows(2) {
+                let (a, b) = (cell(w[0]), cell(w[1]));
+                prop_assert!(curve.rank[a] < curve.rank[b] || (a == b && w[0] < w[1]));
+            }
+        }
     }
 
     #[test]
-    fn history_follows_particle_ids_across_a_removal() {
+    fn morton_codes_interleave_the_coordinates_bits() {
+        assert_eq!(morton_code([0, 0, 0]), 0);
+        assert_eq!(morton_code([1, 0, 0]), 0b001);
+        assert_eq!(morton_code([0, 1, 0]), 0b010);
+        assert_eq!(morton_code([0, 0, 1]), 0b100);
+        assert_eq!(morton_code([3, 0, 0]), 0b001_001);
+        assert_eq!(morton_code([2, 3, 1]), 0b011_110);
+        // The 21st bit of each coordinate is the code's top three.
+        assert_eq!(morton_code([1 << 20, 1 << 20, 1 << 20]), 0b111 << 60);
+    }
+
+    #[test]
+    fn history_follows_the_particles_across_a_removal_and_a_reordering() {
         let positions = vec![
             Vec3::new(0.0, 0.0, 0.0),
             Vec3::new(0.0019, 0.0, 0.0),
@@ -341,31 +448,28 @@ mod tests {
         ];
         let radii = vec![0.001; 3];
         let grid = CellGrid::new(Vec3::zeros(), Vec3::new(0.01, 0.01, 0.01), 0.003);
-        let ids = vec![1, 2, 3];
-        let mut first = PairList::build(
-            &grid,
-            &positions,
-            &radii,
-            0.0005,
-            &PairList::default(),
-            &[],
-            &ids,
-            &[],
-        );
+        let mut first =
+            PairList::build(&grid, &positions, &radii, 0.0005, &PairList::default(), &[]);
         assert_eq!(first.len(), 2);
-        first.shear_m[1] = Vec3::new(1e-6, 0.0, 0.0); // pair (2, 3)
-                                                      // Particle 1 leaves; particles 2 and 3 are now indices 0 and 1.
-        let second = PairList::build(
-            &grid,
-            &positions[1..],
-            &radii[1..],
-            0.0005,
-            &first,
-            &[1, 2],
-            &[2, 3],
-            &ids,
-        );
+        first.shear_m[1] = Vec3::new(1e-6, 0.0, 0.0); // pair (1, 2): 1 against 2
+        assert_eq!(first.history(2, 1), Some(Vec3::new(-1e-6, 0.0, 0.0)));
+        // Particle 0 leaves; particles 1 and 2 are now indices 0 and 1.
+        let second = PairList::build(&grid, &positions[1..], &radii[1..], 0.0005, &first, &[1, 2]);
         assert_eq!(second.len(), 1);
         assert_eq!(second.shear_m[0], Vec3::new(1e-6, 0.0, 0.0));
+        // They swap places in memory, and a new particle comes first: the pair is now
+        // stored the other way round, and so is its history.
+        let swapped = [Vec3::new(0.009, 0.009, 0.009), positions[2], positions[1]];
+        let third = PairList::build(
+            &grid,
+            &swapped,
+            &radii,
+            0.0005,
+            &second,
+            &[NEW_PARTICLE, 1, 0],
+        );
+        assert_eq!(third.len(), 1);
+        assert_eq!(third.history(1, 2), Some(Vec3::new(-1e-6, 0.0, 0.0)));
+        assert_eq!(third.in_contact, [true]);
     }
 }

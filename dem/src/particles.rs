@@ -1,8 +1,10 @@
 //! The particle store: one array per quantity (structure of arrays), owned by the
 //! caller and passed to the stepper, as rapier keeps bodies in caller-owned sets.
 //!
-//! Particles are kept in ascending id order; removing particles keeps that order, so an
-//! index comparison `i < j` is an id comparison and pair lists stay sorted.
+//! The order of the particles is the stepper's: at each neighbour-list rebuild it
+//! sorts them along a space-filling curve so that particles near in space are near in
+//! memory ([`crate::neighbour::CellGrid::curve_rank`]). Ids are unique and stable;
+//! look a particle up by id with [`Particles::index_of`].
 
 use crate::material::ParticleType;
 use crate::math::{Real, Vec3};
@@ -10,8 +12,7 @@ use crate::math::{Real, Vec3};
 /// Every particle's state, SI units.
 #[derive(Debug, Clone, Default)]
 pub struct Particles {
-    /// Identity, unique for the whole run, ascending, from 1 (LIGGGHTS numbers atoms
-    /// from 1 too).
+    /// Identity, unique for the whole run, from 1 (LIGGGHTS numbers atoms from 1 too).
     pub id: Vec<u32>,
     /// Index into the simulation's particle types.
     pub kind: Vec<u16>,
@@ -43,9 +44,8 @@ impl Particles {
     }
 
     /// Appends a particle of `kind` (described by `particle_type`) at rest; its id must
-    /// exceed every id already present.
+    /// differ from every id already present.
     pub fn push(&mut self, id: u32, kind: u16, particle_type: &ParticleType, position_m: Vec3) {
-        debug_assert!(self.id.last().is_none_or(|&last| last < id));
         self.id.push(id);
         self.kind.push(kind);
         self.radius_m.push(particle_type.radius_m);
@@ -73,24 +73,33 @@ impl Particles {
             .sum()
     }
 
-    /// Keeps the particles for which `keep[i]` is true, in order; returns for each kept
-    /// particle its former index.
-    pub fn retain(&mut self, keep: &[bool]) -> Vec<u32> {
-        let kept: Vec<u32> = (0..self.len() as u32)
-            .filter(|&i| keep[i as usize])
-            .collect();
-        fn select<T: Copy>(values: &mut Vec<T>, kept: &[u32]) {
-            *values = kept.iter().map(|&i| values[i as usize]).collect();
-        }
-        select(&mut self.id, &kept);
-        select(&mut self.kind, &kept);
-        select(&mut self.radius_m, &kept);
-        select(&mut self.mass_kg, &kept);
-        select(&mut self.position_m, &kept);
-        select(&mut self.velocity_m_s, &kept);
-        select(&mut self.angular_velocity, &kept);
-        select(&mut self.force_n, &kept);
-        select(&mut self.torque_n_m, &kept);
-        kept
+    /// The index of the particle with id `id` (a linear search: for tests and readers,
+    /// not for the step).
+    pub fn index_of(&self, id: u32) -> Option<usize> {
+        self.id.iter().position(|&i| i == id)
     }
+
+    /// The largest id present.
+    pub fn max_id(&self) -> Option<u32> {
+        self.id.iter().copied().max()
+    }
+
+    /// Rearranges the particles so that particle `i` is the former particle
+    /// `order[i]` (a permutation, or a selection when `order` leaves some out).
+    pub fn select(&mut self, order: &[u32]) {
+        select(&mut self.id, order);
+        select(&mut self.kind, order);
+        select(&mut self.radius_m, order);
+        select(&mut self.mass_kg, order);
+        select(&mut self.position_m, order);
+        select(&mut self.velocity_m_s, order);
+        select(&mut self.angular_velocity, order);
+        select(&mut self.force_n, order);
+        select(&mut self.torque_n_m, order);
+    }
+}
+
+/// `values[i] = former values[order[i]]`.
+pub fn select<T: Copy>(values: &mut Vec<T>, order: &[u32]) {
+    *values = order.iter().map(|&i| values[i as usize]).collect();
 }

@@ -7,7 +7,9 @@
 //! 2. **Neighbours**: when some particle has moved, relative to the walls, more than
 //!    half the skin since the last rebuild, or an inflow's batch is due, particles that
 //!    reached the sink are removed, the inflows' batches are inserted
-//!    ([`crate::inflow`]), and the pair list and wall candidates are rebuilt.
+//!    ([`crate::inflow`]), the particles are sorted along a Morton curve over the
+//!    neighbour cells (memory order follows space), and the pair list and wall
+//!    candidates are rebuilt.
 //! 3. **Pair forces** (parallel over blocks of particles): each pair's Hertz–Mindlin
 //!    force into a per-pair slot, histories updated in place.
 //! 4. **Gather** (parallel over particles): gravity, air drag (when there is air; in
@@ -17,8 +19,9 @@
 //! 5. **Kick**: `v += dt/2 F/m`, `ω += dt/2 τ/I`; speeds and overlaps beyond their
 //!    bounds stop the run with [`Unstable`].
 //!
-//! Every sum runs in an order fixed by the particle and pair indices, so a run gives
-//! the same numbers, bit for bit, with any number of threads.
+//! Every sum runs in an order fixed by the particle and pair indices, and the sort is
+//! a counting sort whose ties keep index order, so a run gives the same numbers, bit
+//! for bit, with any number of threads.
 
 use std::time::{Duration, Instant};
 
@@ -31,10 +34,11 @@ use crate::inflow::{Inflow, InflowError, InflowState};
 use crate::material::{ContactTable, Material, ParticleType};
 use crate::math::{Real, Vec3};
 use crate::mesh::WallMesh;
-use crate::neighbour::{CellGrid, PairList};
-use crate::particles::Particles;
+use crate::neighbour::{CellGrid, CurveOrder, PairList, NEW_PARTICLE};
+use crate::particles::{select, Particles};
 use crate::walls::{
-    wall_load, MeshIndex, ParticleView, WallCandidates, WallContact, WallContacts, WallState,
+    wall_load, MeshIndex, ParticleView, WallCandidates, WallContact, WallContacts, WallLoad,
+    WallState,
 };
 
 /// Settings of a simulation that are not particles or walls.
@@ -181,6 +185,7 @@ pub struct Simulation {
     meshes: Vec<WallMesh>,
     mesh_indexes: Vec<MeshIndex>,
     grid: CellGrid,
+    curve: CurveOrder,
     pairs: PairList,
     pair_loads: Vec<PairLoad>,
     wall_candidates: WallCandidates,
@@ -296,6 +301,7 @@ impl Simulation {
             .fold(0.0, Real::max);
         let reach = 2.0 * largest + config.skin_m;
         let grid = CellGrid::new(config.domain_min_m, config.domain_max_m, reach);
+        let curve = CurveOrder::new(&grid);
         let mesh_indexes = meshes
             .iter()
             .map(|m| MeshIndex::new(m, largest + config.skin_m))
@@ -307,6 +313,7 @@ impl Simulation {
             types,
             mesh_indexes,
             grid,
+            curve,
             pairs: PairList::default(),
             pair_loads: Vec::new(),
             wall_candidates: WallCandidates::default(),
@@ -331,7 +338,7 @@ impl Simulation {
             inflows: Vec::new(),
             impact_energy_j: Vec::new(),
             wall_impact_energy_j: 0.0,
-            next_id: particles.id.last().map_or(1, |&id| id + 1),
+            next_id: particles.max_id().map_or(1, |id| id + 1),
             particles,
             config,
         };
@@ -505,6 +512,7 @@ impl Simulation {
             .reduce(|| 0.0, Real::max);
         // Sensor and sink: a cheap sequential scan; z before the drift is z - dt vz.
         let time = self.time_s;
+        let recorded = self.crossings.len();
         for i in 0..self.particles.len() {
             let (x, v) = (self.particles.position_m[i], self.particles.velocity_m_s[i]);
             if let Some(plane) = self.sensor_z_m {
@@ -529,6 +537,8 @@ impl Simulation {
                 self.removed_mass_kg += self.particles.mass_kg[i];
             }
         }
+        // A step's crossings in id order, whatever order the particles are in.
+        self.crossings[recorded..].sort_unstable_by_key(|c| c.id);
         moved_squared.sqrt()
     }
 
@@ -558,26 +568,12 @@ impl Simulation {
         moved_m + wall_moved > 0.5 * self.config.skin_m
     }
 
-    /// Removes particles past the sink, inserts the inflows' due batches, rebuilds the
-    /// pair list and wall candidates.
+    /// Removes particles past the sink, inserts the inflows' due batches, sorts the
+    /// particles along the curve, rebuilds the pair list and wall candidates.
     fn rebuild(&mut self) {
-        let former_ids = self.particles.id.clone();
-        let former = if self.leaving_count > 0 {
-            let keep: Vec<bool> = self.leaving.iter().map(|l| !l).collect();
-            let kept = self.particles.retain(&keep);
-            self.wall_contacts = kept
-                .iter()
-                .map(|&i| self.wall_contacts[i as usize])
-                .collect();
-            self.crossed = kept.iter().map(|&i| self.crossed[i as usize]).collect();
-            self.leaving = vec![false; kept.len()];
-            self.leaving_count = 0;
-            kept
-        } else {
-            (0..self.particles.len() as u32).collect()
-        };
-        // New particles come last, with ids above every other; `former` has no entry
-        // for them, so they start without history.
+        // New particles come last, with ids above every other, and start without
+        // history.
+        let before = self.particles.len();
         let mut inflows = std::mem::take(&mut self.inflows);
         for inflow in &mut inflows {
             inflow.insert_due(
@@ -592,6 +588,28 @@ impl Simulation {
         self.wall_contacts.resize(n, WallContacts::default());
         self.crossed.resize(n, false);
         self.leaving.resize(n, false);
+        // One selection removes, reorders and tells each particle its former index.
+        let staying: Vec<u32> = (0..n as u32)
+            .filter(|&i| !self.leaving[i as usize])
+            .collect();
+        let order = self
+            .curve
+            .sort(&self.grid, &self.particles.position_m, &staying);
+        self.particles.select(&order);
+        select(&mut self.wall_contacts, &order);
+        select(&mut self.crossed, &order);
+        self.leaving = vec![false; order.len()];
+        self.leaving_count = 0;
+        let former: Vec<u32> = order
+            .iter()
+            .map(|&i| {
+                if (i as usize) < before {
+                    i
+                } else {
+                    NEW_PARTICLE
+                }
+            })
+            .collect();
         let p = &self.particles;
         self.pairs = PairList::build(
             &self.grid,
@@ -600,8 +618,6 @@ impl Simulation {
             self.config.skin_m,
             &self.pairs,
             &former,
-            &p.id,
-            &former_ids,
         );
         // Loads are read only where `in_contact` says this step wrote them.
         self.pair_loads
@@ -615,6 +631,13 @@ impl Simulation {
             &p.radius_m,
             self.config.skin_m,
         );
+        // The gather skips particles without candidates: their contacts end here.
+        for (i, contacts) in self.wall_contacts.iter_mut().enumerate() {
+            if self.wall_candidates.of(i).is_empty() {
+                contacts.clear();
+            }
+        }
+        let p = &self.particles;
         self.reference_positions = p.position_m.clone();
         self.reference_offsets = self.mesh_offsets.clone();
         self.timers.rebuilds += 1;
@@ -842,7 +865,12 @@ impl Simulation {
                     mass_kg: mass[i],
                     kind: kind[i] as usize,
                 };
-                let wall = wall_load(&walls, candidates.of(i), &particle, contacts);
+                let near = candidates.of(i);
+                let wall = if near.is_empty() {
+                    WallLoad::default()
+                } else {
+                    wall_load(&walls, near, &particle, contacts)
+                };
                 let drag = air.map_or(Vec3::zeros(), |a| {
                     match air_field.and_then(|field| field.velocity_at(position[i])) {
                         Some(wind) => a.drag_in_n(wind, radius[i], velocity[i]),

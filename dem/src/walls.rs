@@ -179,6 +179,11 @@ impl WallContacts {
         &self.items[..self.len]
     }
 
+    /// Forgets every contact (a particle with no wall within reach has none).
+    pub fn clear(&mut self) {
+        self.len = 0;
+    }
+
     fn push(&mut self, contact: WallContact) {
         if self.len < MAX_WALL_CONTACTS {
             self.items[self.len] = contact;
@@ -224,7 +229,7 @@ pub struct ParticleView {
 }
 
 /// Force and torque the walls exert on one particle, and its deepest wall overlap.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct WallLoad {
     /// Force, N.
     pub force_n: Vec3,

@@ -42,7 +42,7 @@ fn feeding(threads: usize, check_overlaps: bool) -> (Simulation, Vec<Vec3>) {
         .unwrap();
         for _ in 0..7500 {
             let before = sim.particles.len();
-            let first_new = sim.particles.id.last().map_or(1, |&id| id + 1);
+            let first_new = sim.particles.max_id().map_or(1, |id| id + 1);
             sim.step().unwrap();
             if check_overlaps && sim.particles.len() > before {
                 let p = &sim.particles;

@@ -35,9 +35,9 @@ use crate::material::{ContactTable, Material, ParticleType};
 use crate::math::{Real, Vec3};
 use crate::mesh::WallMesh;
 use crate::neighbour::{CellGrid, CurveOrder, PairList, NEW_PARTICLE};
-use crate::particles::{select, Particles};
+use crate::particles::{Particles, Reorder};
 use crate::walls::{
-    wall_load, MeshIndex, ParticleView, WallCandidates, WallContact, WallContacts, WallLoad,
+    wall_load, MeshIndex, ParticleView, WallCandidates, WallContact, WallContactStore, WallLoad,
     WallState,
 };
 
@@ -152,6 +152,16 @@ struct PairLoad {
     torque_on_second: Vec3,
 }
 
+/// The deepest pair overlap of a block so far.
+#[derive(Debug, Clone, Copy)]
+struct Deepest {
+    overlap_m: Real,
+    /// The smaller radius of the pair, m.
+    smaller_m: Real,
+    i: usize,
+    j: usize,
+}
+
 /// Pair rows are processed in blocks of this many particles.
 const BLOCK: usize = 64;
 
@@ -189,7 +199,7 @@ pub struct Simulation {
     pairs: PairList,
     pair_loads: Vec<PairLoad>,
     wall_candidates: WallCandidates,
-    wall_contacts: Vec<WallContacts>,
+    wall_contacts: WallContactStore,
     reference_positions: Vec<Vec3>,
     reference_offsets: Vec<Vec3>,
     /// Each wall's displacement (m), velocity (m/s) and presence at `time_s`, set
@@ -317,7 +327,7 @@ impl Simulation {
             pairs: PairList::default(),
             pair_loads: Vec::new(),
             wall_candidates: WallCandidates::default(),
-            wall_contacts: vec![WallContacts::default(); n],
+            wall_contacts: WallContactStore::default(),
             reference_positions: Vec::new(),
             reference_offsets: vec![Vec3::zeros(); meshes.len()],
             mesh_offsets: Vec::new(),
@@ -436,13 +446,13 @@ impl Simulation {
     /// Number of wall contacts particle index `i` had in the last step (tests use it
     /// to check that a shared edge or vertex is counted once).
     pub fn wall_contact_count(&self, i: usize) -> usize {
-        self.wall_contacts[i].as_slice().len()
+        self.wall_contacts.of(i).len()
     }
 
     /// The wall contacts particle index `i` had in the last step, each with its unit
     /// normal from the wall towards the particle.
     pub fn wall_contacts(&self, i: usize) -> &[WallContact] {
-        self.wall_contacts[i].as_slice()
+        self.wall_contacts.of(i)
     }
 
     /// Advances the simulation by one time step.
@@ -585,7 +595,6 @@ impl Simulation {
         }
         self.inflows = inflows;
         let n = self.particles.len();
-        self.wall_contacts.resize(n, WallContacts::default());
         self.crossed.resize(n, false);
         self.leaving.resize(n, false);
         // One selection removes, reorders and tells each particle its former index.
@@ -595,20 +604,14 @@ impl Simulation {
         let order = self
             .curve
             .sort(&self.grid, &self.particles.position_m, &staying);
-        self.particles.select(&order);
-        select(&mut self.wall_contacts, &order);
-        select(&mut self.crossed, &order);
+        let reorder = Reorder::new(&order, n);
+        self.particles.reorder(&reorder);
+        reorder.apply(&mut self.crossed);
         self.leaving = vec![false; order.len()];
         self.leaving_count = 0;
         let former: Vec<u32> = order
             .iter()
-            .map(|&i| {
-                if (i as usize) < before {
-                    i
-                } else {
-                    NEW_PARTICLE
-                }
-            })
+            .map(|&i| if (i as usize) < before { i } else { NEW_PARTICLE })
             .collect();
         let p = &self.particles;
         self.pairs = PairList::build(
@@ -631,12 +634,8 @@ impl Simulation {
             &p.radius_m,
             self.config.skin_m,
         );
-        // The gather skips particles without candidates: their contacts end here.
-        for (i, contacts) in self.wall_contacts.iter_mut().enumerate() {
-            if self.wall_candidates.of(i).is_empty() {
-                contacts.clear();
-            }
-        }
+        self.wall_contacts =
+            WallContactStore::carried(&self.wall_contacts, &self.wall_candidates, &former);
         let p = &self.particles;
         self.reference_positions = p.position_m.clone();
         self.reference_offsets = self.mesh_offsets.clone();
@@ -733,7 +732,7 @@ impl Simulation {
             .filter_map(
                 |(((first, last, shear, in_contact), loads), (forces, torques))| {
                     let base = rows[first] as usize;
-                    let mut worst: Option<(Real, usize, usize)> = None;
+                    let mut worst: Option<Deepest> = None;
                     for i in first..last {
                         let mut force_i = Vec3::zeros();
                         let mut torque_i = Vec3::zeros();
@@ -756,25 +755,37 @@ impl Simulation {
                             }
                             let distance = distance_squared.sqrt();
                             let overlap = reach - distance;
-                            let ratio = overlap / ri.min(rj);
-                            if worst.is_none_or(|(w, _, _)| ratio > w) {
-                                worst = Some((ratio, i, j));
+                            // Deepest relative to the smaller radius, compared without
+                            // a division: a / b > c / d ⇔ a d > c b for b, d > 0.
+                            let smaller = ri.min(rj);
+                            if worst.is_none_or(|w| overlap * w.smaller_m > w.overlap_m * smaller)
+                            {
+                                worst = Some(Deepest {
+                                    overlap_m: overlap,
+                                    smaller_m: smaller,
+                                    i,
+                                    j,
+                                });
                             }
                             if distance == 0.0 {
                                 in_contact[local] = false;
                                 continue;
                             }
                             in_contact[local] = true;
-                            let n = offset / distance;
+                            let n = offset * (1.0 / distance);
                             let mj = mass_kg[j];
                             let wj = angular_velocity[j];
                             let contact_velocity =
                                 vi - velocity_m_s[j] - (ri * wi + rj * wj).cross(&n);
+                            // R* = ri rj / (ri + rj) and m* = mi mj / (mi + mj) from
+                            // one division.
+                            let mass_sum = mi + mj;
+                            let shared = 1.0 / (reach * mass_sum);
                             let geometry = ContactGeometry {
                                 normal: n,
                                 overlap_m: overlap,
-                                effective_radius_m: ri * rj / reach,
-                                effective_mass_kg: mi * mj / (mi + mj),
+                                effective_radius_m: ri * rj * mass_sum * shared,
+                                effective_mass_kg: mi * mj * reach * shared,
                             };
                             let constants = table.particles(ki, kind[j] as usize);
                             let result = hertz_mindlin(
@@ -796,7 +807,7 @@ impl Simulation {
                         forces[i - first] = force_i;
                         torques[i - first] = torque_i;
                     }
-                    worst
+                    worst.map(|w| (w.overlap_m / w.smaller_m, w.i, w.j))
                 },
             )
             .reduce_with(|a, b| {
@@ -836,51 +847,67 @@ impl Simulation {
             &p.radius_m,
             &p.kind,
         );
-        let worst = (
-            p.force_n.par_iter_mut(),
-            p.torque_n_m.par_iter_mut(),
-            self.wall_contacts.par_iter_mut(),
-            self.impact_energy_j.par_iter_mut(),
-        )
-            .into_par_iter()
+        let worst = p
+            .force_n
+            .par_chunks_mut(CHUNK)
+            .zip(p.torque_n_m.par_chunks_mut(CHUNK))
+            .zip(self.impact_energy_j.par_chunks_mut(CHUNK))
+            .zip(self.wall_contacts.chunks_mut(CHUNK))
             .enumerate()
-            .filter_map(|(i, (force, torque, contacts, impact))| {
-                // The pair pass left this particle's own row sum here.
-                let mut f = *force;
-                let mut t = *torque;
-                for &k in &pairs.reverse_pair
-                    [pairs.reverse_start[i] as usize..pairs.reverse_start[i + 1] as usize]
+            .filter_map(|(c, (((forces, torques), impacts), mut lists))| {
+                let mut worst: Option<(Real, usize)> = None;
+                let first = c * CHUNK;
+                for (k, ((force, torque), impact)) in
+                    forces.iter_mut().zip(torques).zip(impacts).enumerate()
                 {
-                    if pairs.in_contact[k as usize] {
-                        let load = &loads[k as usize];
-                        f -= load.force_on_first;
-                        t += load.torque_on_second;
+                    let i = first + k;
+                    // The pair pass left this particle's own row sum here.
+                    let mut f = *force;
+                    let mut t = *torque;
+                    for &k in &pairs.reverse_pair
+                        [pairs.reverse_start[i] as usize..pairs.reverse_start[i + 1] as usize]
+                    {
+                        if pairs.in_contact[k as usize] {
+                            let load = &loads[k as usize];
+                            f -= load.force_on_first;
+                            t += load.torque_on_second;
+                        }
+                    }
+                    let near = candidates.of(i);
+                    let wall = if near.is_empty() {
+                        WallLoad::default()
+                    } else {
+                        // Particles with candidates hold the chunk's lists in order.
+                        let (contacts, rest) = std::mem::take(&mut lists)
+                            .split_first_mut()
+                            .expect("one wall contact list per particle with candidates");
+                        lists = rest;
+                        let particle = ParticleView {
+                            position_m: position[i],
+                            velocity_m_s: velocity[i],
+                            angular_velocity: spin[i],
+                            radius_m: radius[i],
+                            mass_kg: mass[i],
+                            kind: kind[i] as usize,
+                        };
+                        wall_load(&walls, near, &particle, contacts)
+                    };
+                    let drag = air.map_or(Vec3::zeros(), |a| {
+                        match air_field.and_then(|field| field.velocity_at(position[i])) {
+                            Some(wind) => a.drag_in_n(wind, radius[i], velocity[i]),
+                            None => a.drag_n(radius[i], velocity[i]),
+                        }
+                    });
+                    *force = f + wall.force_n + mass[i] * gravity + drag;
+                    *torque = t + wall.torque_n_m;
+                    *impact = wall.impact_energy_j;
+                    if wall.worst_overlap_ratio > 0.0
+                        && worst.is_none_or(|(w, _)| wall.worst_overlap_ratio > w)
+                    {
+                        worst = Some((wall.worst_overlap_ratio, i));
                     }
                 }
-                let particle = ParticleView {
-                    position_m: position[i],
-                    velocity_m_s: velocity[i],
-                    angular_velocity: spin[i],
-                    radius_m: radius[i],
-                    mass_kg: mass[i],
-                    kind: kind[i] as usize,
-                };
-                let near = candidates.of(i);
-                let wall = if near.is_empty() {
-                    WallLoad::default()
-                } else {
-                    wall_load(&walls, near, &particle, contacts)
-                };
-                let drag = air.map_or(Vec3::zeros(), |a| {
-                    match air_field.and_then(|field| field.velocity_at(position[i])) {
-                        Some(wind) => a.drag_in_n(wind, radius[i], velocity[i]),
-                        None => a.drag_n(radius[i], velocity[i]),
-                    }
-                });
-                *force = f + wall.force_n + mass[i] * gravity + drag;
-                *torque = t + wall.torque_n_m;
-                *impact = wall.impact_energy_j;
-                (wall.worst_overlap_ratio > 0.0).then_some((wall.worst_overlap_ratio, i))
+                worst
             })
             .reduce_with(|a, b| {
                 if b.0 > a.0 || (b.0 == a.0 && b.1 < a.1) {

@@ -179,16 +179,75 @@ impl WallContacts {
         &self.items[..self.len]
     }
 
-    /// Forgets every contact (a particle with no wall within reach has none).
-    pub fn clear(&mut self) {
-        self.len = 0;
-    }
-
     fn push(&mut self, contact: WallContact) {
         if self.len < MAX_WALL_CONTACTS {
             self.items[self.len] = contact;
             self.len += 1;
         }
+    }
+}
+
+/// The wall contacts of the particles that have wall candidates, one list each, in
+/// particle order. Most particles of a large bed are far from every wall; a list per
+/// particle would cost them ~400 bytes each.
+#[derive(Debug, Clone, Default)]
+pub struct WallContactStore {
+    /// Particle `i`'s list is `lists[slot_start[i]]` when `slot_start[i + 1] >
+    /// slot_start[i]`, else it has none.
+    slot_start: Vec<u32>,
+    lists: Vec<WallContacts>,
+}
+
+impl WallContactStore {
+    /// One empty list per particle with candidates.
+    pub fn new(candidates: &WallCandidates) -> Self {
+        Self::carried(&Self::default(), candidates, &[])
+    }
+
+    /// The lists for `candidates`, each carried over from `previous`, whose particle
+    /// `former[i]` is particle `i` now (an index `previous` lacks starts empty).
+    pub fn carried(previous: &Self, candidates: &WallCandidates, former: &[u32]) -> Self {
+        let n = candidates.start.len().saturating_sub(1);
+        let mut slot_start = Vec::with_capacity(n + 1);
+        let mut lists = Vec::new();
+        slot_start.push(0);
+        for i in 0..n {
+            if !candidates.of(i).is_empty() {
+                let list = former
+                    .get(i)
+                    .and_then(|&f| previous.slot(f as usize))
+                    .map_or_else(WallContacts::default, |k| previous.lists[k]);
+                lists.push(list);
+            }
+            slot_start.push(lists.len() as u32);
+        }
+        Self { slot_start, lists }
+    }
+
+    fn slot(&self, i: usize) -> Option<usize> {
+        let range = self.slot_start.get(i..i + 2)?;
+        (range[1] > range[0]).then_some(range[0] as usize)
+    }
+
+    /// The contacts of particle `i` in the last step.
+    pub fn of(&self, i: usize) -> &[WallContact] {
+        self.slot(i).map_or(&[], |k| self.lists[k].as_slice())
+    }
+
+    /// The lists of the particles `first..first + chunk` for each chunk of `chunk`
+    /// particles, in order (for a parallel pass over chunks).
+    pub fn chunks_mut(&mut self, chunk: usize) -> Vec<&mut [WallContacts]> {
+        let n = self.slot_start.len().saturating_sub(1);
+        let mut rest: &mut [WallContacts] = &mut self.lists;
+        let mut out = Vec::with_capacity(n.div_ceil(chunk));
+        for first in (0..n).step_by(chunk) {
+            let last = (first + chunk).min(n);
+            let len = (self.slot_start[last] - self.slot_start[first]) as usize;
+            let (mine, others) = std::mem::take(&mut rest).split_at_mut(len);
+            rest = others;
+            out.push(mine);
+        }
+        out
     }
 }
 
@@ -296,7 +355,7 @@ pub fn wall_load(
         touches[count] = Some(Touch {
             mesh: m,
             feature: hit.feature,
-            normal: offset / distance,
+            normal: offset * (1.0 / distance),
             overlap_m: r - distance,
         });
         count += 1;

@@ -611,7 +611,13 @@ impl Simulation {
         self.leaving_count = 0;
         let former: Vec<u32> = order
             .iter()
-            .map(|&i| if (i as usize) < before { i } else { NEW_PARTICLE })
+            .map(|&i| {
+                if (i as usize) < before {
+                    i
+                } else {
+                    NEW_PARTICLE
+                }
+            })
             .collect();
         let p = &self.particles;
         self.pairs = PairList::build(
@@ -758,8 +764,7 @@ impl Simulation {
                             // Deepest relative to the smaller radius, compared without
                             // a division: a / b > c / d ⇔ a d > c b for b, d > 0.
                             let smaller = ri.min(rj);
-                            if worst.is_none_or(|w| overlap * w.smaller_m > w.overlap_m * smaller)
-                            {
+                            if worst.is_none_or(|w| overlap * w.smaller_m > w.overlap_m * smaller) {
                                 worst = Some(Deepest {
                                     overlap_m: overlap,
                                     smaller_m: smaller,

@@ -273,17 +273,30 @@ enum Impact {
     },
 }
 
+/// The id of the particle a verification case measures: the first `[[particles]]`
+/// entry.
+const MEASURED_ID: u32 = 1;
+
+/// Where particle 1 is in the stepper's order (which it may change at a rebuild).
+fn measured(simulation: &Simulation) -> usize {
+    simulation
+        .particles
+        .index_of(MEASURED_ID)
+        .expect("a verification case keeps particle 1")
+}
+
 /// What particle 1 touches now: the unit normal towards it and the other particle's
 /// id, or `None` when it touches nothing. A wall comes before a particle.
 fn touching(simulation: &Simulation) -> Option<(Vec3, Option<u32>)> {
-    if let Some(contact) = simulation.wall_contacts(0).first() {
+    let i = measured(simulation);
+    if let Some(contact) = simulation.wall_contacts(i).first() {
         return Some((contact.normal, None));
     }
     let p = &simulation.particles;
-    (1..p.len()).find_map(|j| {
-        let offset = p.position_m[0] - p.position_m[j];
+    (0..p.len()).filter(|&j| j != i).find_map(|j| {
+        let offset = p.position_m[i] - p.position_m[j];
         let distance = offset.norm();
-        (distance < p.radius_m[0] + p.radius_m[j] && distance > 0.0)
+        (distance < p.radius_m[i] + p.radius_m[j] && distance > 0.0)
             .then(|| (offset / distance, Some(p.id[j])))
     })
 }
@@ -291,10 +304,13 @@ fn touching(simulation: &Simulation) -> Option<(Vec3, Option<u32>)> {
 /// Particle 1's velocity relative to `partner` (a fixed wall when `None`), m/s, from
 /// the ids and velocities of every particle.
 fn relative_velocity(ids: &[u32], velocities_m_s: &[Vec3], partner: Option<u32>) -> Vec3 {
-    let other = partner
-        .and_then(|id| ids.binary_search(&id).ok())
-        .map_or(Vec3::zeros(), |j| velocities_m_s[j]);
-    velocities_m_s[0] - other
+    let velocity_of = |id: u32| {
+        ids.iter()
+            .position(|&other| other == id)
+            .map(|j| velocities_m_s[j])
+    };
+    let other = partner.and_then(velocity_of).unwrap_or_else(Vec3::zeros);
+    velocity_of(MEASURED_ID).expect("a verification case keeps particle 1") - other
 }
 
 /// Why a verification run stopped before measuring.
@@ -318,7 +334,9 @@ pub fn run(
     verify: &Verify,
     end_time_s: Real,
 ) -> Result<Vec<Outcome>, VerifyError> {
-    verify.validate(end_time_s, simulation.particles.len())?;
+    // Particle 1 must be there to be measured: its presence counts, not the rest.
+    let measurable = usize::from(simulation.particles.index_of(MEASURED_ID).is_some());
+    verify.validate(end_time_s, measurable)?;
     let dt = simulation.config().timestep_s;
     let steps = (end_time_s / dt).round() as u64;
     let wants_impact = verify.check.iter().any(|c| !c.quantity.uses_window());
@@ -338,10 +356,11 @@ pub fn run(
             simulation.step()?;
         }
         let p = &simulation.particles;
+        let i = measured(simulation);
         let state = State {
             time_s: simulation.time_s(),
-            velocity_m_s: p.velocity_m_s[0],
-            spin: p.angular_velocity[0],
+            velocity_m_s: p.velocity_m_s[i],
+            spin: p.angular_velocity[i],
         };
         for (check, recorded) in verify.check.iter().zip(&mut windows) {
             if let Some(window) = check.window {
@@ -461,7 +480,7 @@ fn window_value(check: &Check, a: &State, b: &State, simulation: &Simulation) ->
         Quantity::Acceleration => dv / (b.time_s - a.time_s),
         _ => {
             let dw = (b.spin - a.spin).dot(&unit(check.spin_axis));
-            simulation.particles.radius_m[0] * dw / dv
+            simulation.particles.radius_m[measured(simulation)] * dw / dv
         }
     }
 }

@@ -62,6 +62,36 @@ fn every_verification_case_passes() {
     }
 }
 
+/// Particle 1 is measured wherever the stepper keeps it: a second sphere falling
+/// freely under the rolling one's floor sorts first in the Morton order, and would
+/// give its acceleration (g sin θ, not 5/7 g sin θ) to a measure taken by index.
+#[test]
+fn particle_1_is_measured_by_id_not_by_its_place_in_memory() {
+    let text = std::fs::read_to_string(folder().join("incline_rolling.toml")).unwrap();
+    let with_a_second = text.replace(
+        "\n[verify]",
+        "\n[[particles]]\ntype = \"glass\"\nposition = [-0.019, -0.019, -0.009]\n\n[verify]",
+    );
+    assert_ne!(with_a_second, text);
+    let case = Case::parse(&with_a_second).unwrap();
+    let stl = std::fs::read(folder().join(&case.meshes[0].file)).unwrap();
+    let mut simulation = case.build(vec![case.wall_mesh(0, &stl).unwrap()]).unwrap();
+    assert_eq!(
+        simulation.particles.index_of(1),
+        Some(1),
+        "particle 1 sorts second"
+    );
+    let table = case.verify.as_ref().unwrap();
+    for o in verify::run(&mut simulation, table, case.run.end_time).unwrap() {
+        assert!(
+            o.passed(),
+            "{} measured {:?}",
+            o.quantity.name(),
+            o.measured
+        );
+    }
+}
+
 #[test]
 fn each_reference_follows_from_the_case_inputs() {
     for (name, case, simulation) in cases() {

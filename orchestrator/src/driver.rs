@@ -160,9 +160,12 @@ async fn drive_with<E: Executor>(
             driver.poll(&launched.iter().collect::<Vec<_>>()).await?;
         }
         // A final job stays final while this driver holds the study, so a tick reads the
-        // others and the jobs they follow, not the whole study: what is decided about
-        // them is the same, at a cost that does not grow with the finished jobs.
-        let jobs = store.unfinished_jobs(study_id).await?;
+        // others and the jobs they follow, not the whole study; of the pending jobs only
+        // as many as could be launched now (every launch slot, and the jobs still being
+        // terminated, which are pending but skipped). What is decided about them is the
+        // same, at a cost that grows with neither the finished nor the waiting jobs.
+        let pending_limit = driver.budgets.max_parallel + driver.terminating.len();
+        let jobs = store.unfinished_jobs(study_id, pending_limit).await?;
         driver.stop_converged(&jobs).await;
         let terminating: HashSet<i64> = driver.terminating.keys().copied().collect();
         let actions = decide::settle_and_launch(&jobs, &driver.budgets, &terminating, |job| {
@@ -186,14 +189,18 @@ async fn drive_with<E: Executor>(
             driver.started.elapsed().as_secs_f64()
         );
     }
-    let jobs = store.jobs(study_id).await?;
-    let count = |state: JobState| jobs.iter().filter(|j| j.state() == state).count();
+    let counts = store.job_counts(study_id).await?;
+    let count = |state: JobState| counts.get(&state).copied().unwrap_or(0);
     Ok(Summary {
         ending,
         succeeded: count(JobState::Succeeded),
         failed: count(JobState::Failed),
         cancelled: count(JobState::Cancelled),
-        unfinished: jobs.iter().filter(|j| !j.state().is_final()).count(),
+        unfinished: counts
+            .iter()
+            .filter(|(state, _)| !state.is_final())
+            .map(|(_, n)| n)
+            .sum(),
     })
 }
 
@@ -222,11 +229,12 @@ impl<E: Executor> Driver<'_, E> {
     /// Jobs caught between render and launch by a stopped `orch`: re-attached when the
     /// executor still knows them (Slurm), else rendered again.
     async fn reconcile(&mut self) -> Result<(), DriverError> {
-        for job in self.store.jobs(self.study_id).await? {
-            // Submitted and running jobs always have a handle: they are polled.
-            if job.state() != JobState::Rendered {
-                continue;
-            }
+        // Submitted and running jobs always have a handle: they are polled.
+        for job in self
+            .store
+            .jobs_in_state(self.study_id, JobState::Rendered)
+            .await?
+        {
             match self
                 .executor
                 .recover_unrecorded(&self.spec_name(&job), Path::new(&job.run_dir))

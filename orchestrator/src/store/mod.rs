@@ -19,6 +19,7 @@ mod series;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+use std::sync::LazyLock;
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 use sqlx::sqlite::{SqliteConnectOptions, SqliteJournalMode, SqlitePoolOptions, SqliteSynchronous};
@@ -414,32 +415,91 @@ impl Store {
 
     /// A study's jobs that are submitted or running (to poll), in id order.
     pub async fn launched_jobs(&self, study_id: i64) -> Result<Vec<JobRow>, StoreError> {
-        sqlx::query_as(
-            "SELECT * FROM jobs WHERE study_id = ? AND state IN ('submitted', 'running') ORDER BY id",
-        )
-        .bind(study_id)
-        .fetch_all(&self.pool)
-        .await
-        .map_err(query_error("list launched jobs"))
+        static SQL: LazyLock<String> = LazyLock::new(|| {
+            format!(
+                "SELECT * FROM jobs WHERE study_id = ? AND state IN ({}) ORDER BY id",
+                rows::state_list(JobState::is_launched)
+            )
+        });
+        sqlx::query_as(&SQL)
+            .bind(study_id)
+            .fetch_all(&self.pool)
+            .await
+            .map_err(query_error("list launched jobs"))
     }
 
-    /// A study's jobs that are not final, and the jobs those follow (`after_job_id`,
-    /// whatever their state), in id order: what the driver decides about at each tick.
-    /// Its cost grows with the unfinished jobs, not with the study (the index
-    /// `jobs_by_state`).
-    pub async fn unfinished_jobs(&self, study_id: i64) -> Result<Vec<JobRow>, StoreError> {
-        sqlx::query_as(
-            "SELECT * FROM jobs WHERE study_id = ?1
-               AND (state IN ('pending', 'rendered', 'submitted', 'running')
-                    OR id IN (SELECT after_job_id FROM jobs
-                              WHERE study_id = ?1 AND after_job_id IS NOT NULL
-                                AND state IN ('pending', 'rendered', 'submitted', 'running')))
-             ORDER BY id",
+    /// A study's jobs in `state`, in id order.
+    pub async fn jobs_in_state(
+        &self,
+        study_id: i64,
+        state: JobState,
+    ) -> Result<Vec<JobRow>, StoreError> {
+        sqlx::query_as("SELECT * FROM jobs WHERE study_id = ? AND state = ? ORDER BY id")
+            .bind(study_id)
+            .bind(state.as_str())
+            .fetch_all(&self.pool)
+            .await
+            .map_err(query_error("list jobs in a state"))
+    }
+
+    /// How many of a study's jobs are in each state (states without jobs left out).
+    pub async fn job_counts(&self, study_id: i64) -> Result<BTreeMap<JobState, usize>, StoreError> {
+        let counted: Vec<(String, i64, i64)> = sqlx::query_as(
+            "SELECT state, COUNT(*), MIN(id) FROM jobs WHERE study_id = ? GROUP BY state",
         )
         .bind(study_id)
         .fetch_all(&self.pool)
         .await
-        .map_err(query_error("list unfinished jobs"))
+        .map_err(query_error("count jobs by state"))?;
+        let mut counts = BTreeMap::new();
+        for (state, n, first) in counted {
+            let state = rows::parse_state("jobs", first, state)?;
+            counts.insert(state, usize::try_from(n).unwrap_or(0));
+        }
+        Ok(counts)
+    }
+
+    /// What the driver decides about at each tick, in id order: a study's jobs that
+    /// are rendered, submitted or running; the first `pending_limit` pending jobs that
+    /// can be acted on (they follow no job, or one that is final: launched, failed or
+    /// cancelled with it); and the jobs all those follow (`after_job_id`). A pending
+    /// job that waits for an unfinished one is left out; so are the pending jobs past
+    /// the limit, which cannot be launched this tick anyway. So a tick's cost grows
+    /// with the jobs running and the limit, not with the study (the index
+    /// `jobs_by_state`), and the list is empty exactly when no job is unfinished: the
+    /// first job of any chain of pending jobs follows no job or a final or running one.
+    pub async fn unfinished_jobs(
+        &self,
+        study_id: i64,
+        pending_limit: usize,
+    ) -> Result<Vec<JobRow>, StoreError> {
+        static SQL: LazyLock<String> = LazyLock::new(|| {
+            let open = rows::state_list(|s| !s.is_final() && s != JobState::Pending);
+            let pending = rows::state_list(|s| s == JobState::Pending);
+            let finals = rows::state_list(JobState::is_final);
+            format!(
+                "WITH open AS (
+                     SELECT id, after_job_id FROM jobs WHERE study_id = ?1 AND state IN ({open})
+                 ), ready AS (
+                     SELECT j.id, j.after_job_id FROM jobs j LEFT JOIN jobs up ON up.id = j.after_job_id
+                      WHERE j.study_id = ?1 AND j.state IN ({pending})
+                        AND (j.after_job_id IS NULL OR up.state IN ({finals}))
+                      ORDER BY j.id LIMIT ?2
+                 ), picked AS (
+                     SELECT id, after_job_id FROM open UNION ALL SELECT id, after_job_id FROM ready
+                 )
+                 SELECT * FROM jobs
+                  WHERE id IN (SELECT id FROM picked
+                               UNION SELECT after_job_id FROM picked WHERE after_job_id IS NOT NULL)
+                  ORDER BY id"
+            )
+        });
+        sqlx::query_as(&SQL)
+            .bind(study_id)
+            .bind(i64::try_from(pending_limit).unwrap_or(i64::MAX))
+            .fetch_all(&self.pool)
+            .await
+            .map_err(query_error("list unfinished jobs"))
     }
 
     /// One job by id.

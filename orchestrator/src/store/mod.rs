@@ -34,6 +34,7 @@ pub use rows::{
     Decision, FactorRow, JobRow, JobState, PointRow, StudyRow, StudyState, UnknownState,
     DESIGN_STAGE,
 };
+pub use series::{SeriesPages, SeriesPoint};
 
 use crate::study::Study;
 

@@ -40,8 +40,8 @@ use crate::convergence::{self, ConvergenceWatch};
 use crate::coupling::{self, in_moving_air, AirProperties, AIR_FIELD_FILE, AIR_STAGE};
 use crate::decide::{self, is_launched, Action, Budgets, CancelCause, Failure};
 use crate::executor::{
-    Executor, LaunchSpec, LocalExecutor, Recovered, SlurmExecutor, Watched, ATTEMPTS_LOG,
-    STDERR_FILE, STDOUT_FILE,
+    Executor, LaunchSpec, LocalExecutor, Recovered, SlurmExecutor, Unrecorded, Watched,
+    ATTEMPTS_LOG, STDERR_FILE, STDOUT_FILE,
 };
 use crate::output::errln;
 use crate::progress::{Progress, RoundProgress};
@@ -230,16 +230,25 @@ impl<E: Executor> Driver<'_, E> {
     /// executor still knows them (Slurm), else rendered again.
     async fn reconcile(&mut self) -> Result<(), DriverError> {
         // Submitted and running jobs always have a handle: they are polled.
-        for job in self
+        let rendered = self
             .store
             .jobs_in_state(self.study_id, JobState::Rendered)
-            .await?
-        {
-            match self
-                .executor
-                .recover_unrecorded(&self.spec_name(&job), Path::new(&job.run_dir))
-                .await
-            {
+            .await?;
+        if rendered.is_empty() {
+            return Ok(());
+        }
+        let names: Vec<String> = rendered.iter().map(|job| self.spec_name(job)).collect();
+        let unrecorded: Vec<Unrecorded> = rendered
+            .iter()
+            .zip(&names)
+            .map(|(job, name)| Unrecorded {
+                spec_name: name,
+                run_dir: Path::new(&job.run_dir),
+            })
+            .collect();
+        let recovered = self.executor.recover_unrecorded(&unrecorded).await;
+        for (job, recovered) in rendered.iter().zip(recovered) {
+            match recovered {
                 Recovered::Attached(handle) => {
                     tracing::warn!(job = %job.name, %handle, "re-attached to a job a stopped orch submitted before recording it");
                     self.store.mark_submitted(job.id, &handle).await?;
@@ -248,7 +257,7 @@ impl<E: Executor> Driver<'_, E> {
                 Recovered::Killed(pid) => {
                     tracing::warn!(job = %job.name, pid, "killed a solver launched by a stopped orch before its handle was recorded");
                 }
-                _ => {}
+                Recovered::Nothing => {}
             }
             self.store
                 .requeue(

@@ -123,12 +123,7 @@ async fn drive_with<E: Executor>(
         study_id,
         budgets,
         executor,
-        points: store
-            .points(study_id)
-            .await?
-            .into_iter()
-            .map(|p| (p.id, p))
-            .collect(),
+        points: HashMap::new(),
         terminating: HashMap::new(),
         started: Instant::now(),
         last_poll: None,
@@ -157,6 +152,7 @@ async fn drive_with<E: Executor>(
         }
         if driver.poll_due() {
             let launched = store.launched_jobs(study_id).await?;
+            driver.keep_points_of(&launched, false).await?;
             driver.poll(&launched.iter().collect::<Vec<_>>()).await?;
         }
         // A final job stays final while this driver holds the study, so a tick reads the
@@ -166,6 +162,7 @@ async fn drive_with<E: Executor>(
         // same, at a cost that grows with neither the finished nor the waiting jobs.
         let pending_limit = driver.budgets.max_parallel + driver.terminating.len();
         let jobs = store.unfinished_jobs(study_id, pending_limit).await?;
+        driver.keep_points_of(&jobs, true).await?;
         driver.stop_converged(&jobs).await;
         let terminating: HashSet<i64> = driver.terminating.keys().copied().collect();
         let actions = decide::settle_and_launch(&jobs, &driver.budgets, &terminating, |job| {
@@ -210,6 +207,8 @@ struct Driver<'a, E> {
     study_id: i64,
     budgets: Budgets,
     executor: E,
+    /// The design points of the jobs the driver reads (those of the last tick and the
+    /// last poll), not the whole study's: see [`Driver::keep_points_of`].
     points: HashMap<i64, PointRow>,
     /// Jobs whose terminated attempt may still be dying (by handle): not relaunched yet,
     /// so two attempts never share a run directory.
@@ -275,9 +274,43 @@ impl<E: Executor> Driver<'_, E> {
         format!("{}/{}", self.study.name, job.name)
     }
 
-    fn case(&self, job: &JobRow) -> orch_adapters::Case {
-        let natural = &self.points[&job.point_id].natural;
-        self.study.case_at(natural, job.seed as u64)
+    /// The case of `job`'s design point with its seed; its point read from the store
+    /// when the driver does not hold it.
+    async fn case(&self, job: &JobRow) -> Result<orch_adapters::Case, StoreError> {
+        if let Some(point) = self.points.get(&job.point_id) {
+            return Ok(self.study.case_at(&point.natural, job.seed as u64));
+        }
+        let point = self.store.points_by_id(&[job.point_id]).await?;
+        let point = point.first().ok_or_else(|| StoreError::Query {
+            what: "read a job's design point",
+            source: sqlx::Error::RowNotFound,
+        })?;
+        Ok(self.study.case_at(&point.natural, job.seed as u64))
+    }
+
+    /// Holds the design points of `jobs` (reading those it lacks in one query) and,
+    /// when `forget_others`, lets go of every other: what the driver holds grows with
+    /// the jobs it reads, not with the study.
+    async fn keep_points_of(
+        &mut self,
+        jobs: &[JobRow],
+        forget_others: bool,
+    ) -> Result<(), StoreError> {
+        if forget_others {
+            let wanted: HashSet<i64> = jobs.iter().map(|j| j.point_id).collect();
+            self.points.retain(|id, _| wanted.contains(id));
+        }
+        let mut missing: Vec<i64> = jobs
+            .iter()
+            .map(|j| j.point_id)
+            .filter(|id| !self.points.contains_key(id))
+            .collect();
+        missing.sort_unstable();
+        missing.dedup();
+        for point in self.store.points_by_id(&missing).await? {
+            self.points.insert(point.id, point);
+        }
+        Ok(())
     }
 
     fn poll_due(&mut self) -> bool {
@@ -310,8 +343,9 @@ impl<E: Executor> Driver<'_, E> {
     async fn render(&self, job: &JobRow, run_dir: &Path) -> Result<CommandSpec, String> {
         let Some(kind) = job.stage_kind() else {
             let simulation = &self.study.simulation;
+            let case = self.case(job).await.map_err(|e| e.to_string())?;
             simulation
-                .render(&self.case(job), run_dir)
+                .render(&case, run_dir)
                 .map_err(|e| format!("cannot render the case: {e}"))?;
             return Ok(simulation.command());
         };
@@ -328,8 +362,9 @@ impl<E: Executor> Driver<'_, E> {
             .job_responses(upstream.id)
             .await
             .map_err(|e| e.to_string())?;
+        let upstream_case = self.case(&upstream).await.map_err(|e| e.to_string())?;
         let upstream = Upstream {
-            case: &self.case(&upstream),
+            case: &upstream_case,
             responses: &responses,
         };
         stage
@@ -355,7 +390,10 @@ impl<E: Executor> Driver<'_, E> {
         let (air, cfd_job) = self.air_before(job).await?;
         let simulation = &self.study.simulation;
         simulation
-            .render(&in_moving_air(&self.case(job), &air), run_dir)
+            .render(
+                &in_moving_air(&self.case(job).await.map_err(|e| e.to_string())?, &air),
+                run_dir,
+            )
             .map_err(|e| format!("cannot render the case: {e}"))?;
         let field = orch_adapters::openfoam::air_field_csv(Path::new(&cfd_job.run_dir))
             .map_err(|e| format!("cannot read the air of {}: {e}", cfd_job.name))?;
@@ -531,11 +569,14 @@ impl<E: Executor> Driver<'_, E> {
             if !self.convergence.due(job.id, stop, now) || run_dir.join(STOP_FILE).exists() {
                 continue;
             }
-            let (case, simulation, dir) = (
-                self.case(job),
-                self.study.simulation.clone(),
-                run_dir.clone(),
-            );
+            let case = match self.case(job).await {
+                Ok(case) => case,
+                Err(e) => {
+                    tracing::warn!(job = %job.name, "cannot check stop_when: {e}");
+                    continue;
+                }
+            };
+            let (simulation, dir) = (self.study.simulation.clone(), run_dir.clone());
             let so_far =
                 tokio::task::spawn_blocking(move || simulation.results_so_far(&case, &dir))
                     .await
@@ -697,7 +738,7 @@ impl<E: Executor> Driver<'_, E> {
     async fn collect(&mut self, job: &JobRow) -> Result<(), DriverError> {
         let unreadable =
             |reason| decide::retry_or_fail(job, &self.budgets, Failure::Unreadable(reason));
-        let mut case = self.case(job);
+        let mut case = self.case(job).await?;
         let simulation = self.study.simulation.clone();
         let stage = match job.stage_kind() {
             Some(AIR_STAGE) => match self.air_before(job).await {
@@ -843,10 +884,8 @@ impl<E: Executor> Driver<'_, E> {
             return Ok(());
         }
         self.last_progress = Some(Instant::now());
-        let jobs = self.store.jobs(self.study_id).await?;
-        let round_of = |job: &JobRow| self.points.get(&job.point_id).map_or(0, |p| p.round);
-        let round = jobs.iter().map(round_of).max().unwrap_or(0);
-        let round_jobs: Vec<&JobRow> = jobs.iter().filter(|j| round_of(j) == round).collect();
+        let (round, jobs) = self.store.latest_round_jobs(self.study_id).await?;
+        let round_jobs: Vec<&JobRow> = jobs.iter().collect();
         let progress = RoundProgress::of(
             round,
             self.study.rounds,

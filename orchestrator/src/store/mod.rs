@@ -532,24 +532,48 @@ impl Store {
         .fetch_all(&self.pool)
         .await
         .map_err(query_error("list design points"))?;
-        let mut points: Vec<PointRow> = Vec::new();
-        for row in rows {
-            let id: i64 = row.get(0);
-            if points.last().is_none_or(|p| p.id != id) {
-                points.push(PointRow {
-                    id,
-                    round: row.get(1),
-                    idx: row.get(2),
-                    purpose: row.get(5),
-                    coded: Vec::new(),
-                    natural: Vec::new(),
-                });
-            }
-            let point = points.last_mut().expect("pushed above");
-            point.coded.push(row.get(3));
-            point.natural.push(row.get(4));
+        Ok(collect_points(rows))
+    }
+
+    /// The design points of `ids` (those that exist), in id order.
+    pub async fn points_by_id(&self, ids: &[i64]) -> Result<Vec<PointRow>, StoreError> {
+        if ids.is_empty() {
+            return Ok(Vec::new());
         }
-        Ok(points)
+        let ids = serde_json::to_string(ids).expect("JSON of integers");
+        let rows = sqlx::query(
+            "SELECT p.id, p.round, p.idx, v.coded, v.natural, p.purpose FROM points p
+             JOIN point_values v ON v.point_id = p.id
+             WHERE p.id IN (SELECT value FROM json_each(?)) ORDER BY p.id, v.factor_idx",
+        )
+        .bind(ids)
+        .fetch_all(&self.pool)
+        .await
+        .map_err(query_error("read design points"))?;
+        Ok(collect_points(rows))
+    }
+
+    /// The latest round that has jobs (0 for none) and its jobs, in id order: what the
+    /// terminal's bar counts.
+    pub async fn latest_round_jobs(&self, study_id: i64) -> Result<(i64, Vec<JobRow>), StoreError> {
+        let (round,): (i64,) = sqlx::query_as(
+            "SELECT COALESCE(MAX(p.round), 0) FROM jobs j JOIN points p ON p.id = j.point_id
+             WHERE j.study_id = ?",
+        )
+        .bind(study_id)
+        .fetch_one(&self.pool)
+        .await
+        .map_err(query_error("find the latest round"))?;
+        let jobs = sqlx::query_as(
+            "SELECT j.* FROM jobs j JOIN points p ON p.id = j.point_id
+             WHERE j.study_id = ? AND p.round = ? ORDER BY j.id",
+        )
+        .bind(study_id)
+        .bind(round)
+        .fetch_all(&self.pool)
+        .await
+        .map_err(query_error("list the latest round's jobs"))?;
+        Ok((round, jobs))
     }
 
     /// Responses of every job of a study, by job id then name.
@@ -1061,6 +1085,29 @@ async fn refuse_if_driven(
         }
         _ => Ok(()),
     }
+}
+
+/// Design points from rows of `(id, round, idx, coded, natural, purpose)`, one row per
+/// factor, ordered by point and factor.
+fn collect_points(rows: Vec<sqlx::sqlite::SqliteRow>) -> Vec<PointRow> {
+    let mut points: Vec<PointRow> = Vec::new();
+    for row in rows {
+        let id: i64 = row.get(0);
+        if points.last().is_none_or(|p| p.id != id) {
+            points.push(PointRow {
+                id,
+                round: row.get(1),
+                idx: row.get(2),
+                purpose: row.get(5),
+                coded: Vec::new(),
+                natural: Vec::new(),
+            });
+        }
+        let point = points.last_mut().expect("pushed above");
+        point.coded.push(row.get(3));
+        point.natural.push(row.get(4));
+    }
+    points
 }
 
 /// A value bound into a transition's assignments.

@@ -398,3 +398,18 @@ async fn a_tick_reads_the_open_jobs_and_only_the_first_pending_ones_it_could_act
     }
     assert!(store.unfinished_jobs(id, 100).await.unwrap().is_empty());
 }
+
+/// The driver reads the design points of the jobs it handles, not the study's.
+#[tokio::test]
+async fn points_are_read_by_id_and_the_latest_round_with_its_jobs() {
+    let (_dir, store, id) = store_with_study().await;
+    let all = store.points(id).await.unwrap();
+    let picked = store
+        .points_by_id(&[all[2].id, all[0].id, i64::MAX])
+        .await
+        .unwrap();
+    assert_eq!(picked, vec![all[0].clone(), all[2].clone()]);
+    assert!(store.points_by_id(&[]).await.unwrap().is_empty());
+    let (round, jobs) = store.latest_round_jobs(id).await.unwrap();
+    assert_eq!((round, jobs.len()), (0, 18));
+}

@@ -1145,11 +1145,32 @@ async fn export(
 ) -> anyhow::Result<i32> {
     let (store, row) = find(project_dir, name).await?;
     let study = stored_study_to_read(&store, &row).await?.ok();
-    let table = if series {
-        crate::export::series_table(&store, &row, study.as_ref()).await?
-    } else {
-        crate::export::runs_table(&store, &row, study.as_ref()).await?
-    };
+    if series {
+        // Streamed: a study's series can be far larger than its runs.
+        let study = study.as_ref();
+        match output {
+            Some(path) => {
+                let file = std::io::BufWriter::new(create_output(path)?);
+                let rows = crate::export::write_series(&store, &row, study, format, file)
+                    .await
+                    .with_context(|| format!("cannot export to {}", path.display()))?;
+                errln!("orch: {rows} rows written to {}", path.display());
+            }
+            None => {
+                let stdout = std::io::BufWriter::new(std::io::stdout().lock());
+                match crate::export::write_series(&store, &row, study, format, stdout).await {
+                    // The reader has gone (`| head`): nobody wants the rest.
+                    Err(crate::export::ExportError::Write(e))
+                        if e.kind() == std::io::ErrorKind::BrokenPipe => {}
+                    other => {
+                        other?;
+                    }
+                }
+            }
+        }
+        return Ok(exit_codes::SUCCESS);
+    }
+    let table = crate::export::runs_table(&store, &row, study.as_ref()).await?;
     let text = table.render(format);
     match output {
         Some(path) => {
@@ -1190,6 +1211,17 @@ async fn report(
 
 /// Writes `bytes` to `path`, creating its folder; a failure says what to do.
 fn write_output(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
+    use std::io::Write;
+    create_output(path)?.write_all(bytes).with_context(|| {
+        format!(
+            "cannot write {}; check its folder's permissions or choose another path with -o",
+            path.display()
+        )
+    })
+}
+
+/// Creates (or empties) the file `path`, creating its folder; a failure says what to do.
+fn create_output(path: &Path) -> anyhow::Result<std::fs::File> {
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).with_context(|| {
             format!(
@@ -1198,7 +1230,7 @@ fn write_output(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
             )
         })?;
     }
-    std::fs::write(path, bytes).with_context(|| {
+    std::fs::File::create(path).with_context(|| {
         format!(
             "cannot write {}; check its folder's permissions or choose another path with -o",
             path.display()

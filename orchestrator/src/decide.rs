@@ -168,7 +168,7 @@ impl Action {
 
 /// True while a job holds a slot of `max_parallel`: handed to the executor, not final.
 pub fn is_launched(state: JobState) -> bool {
-    matches!(state, JobState::Submitted | JobState::Running)
+    state.is_launched()
 }
 
 /// Another attempt if the budget allows, else failed: `attempts` counts the attempt

@@ -40,8 +40,8 @@ use crate::convergence::{self, ConvergenceWatch};
 use crate::coupling::{self, in_moving_air, AirProperties, AIR_FIELD_FILE, AIR_STAGE};
 use crate::decide::{self, is_launched, Action, Budgets, CancelCause, Failure};
 use crate::executor::{
-    Executor, LaunchSpec, LocalExecutor, Recovered, SlurmExecutor, Watched, ATTEMPTS_LOG,
-    STDERR_FILE, STDOUT_FILE,
+    Executor, LaunchSpec, LocalExecutor, Recovered, SlurmExecutor, Unrecorded, Watched,
+    ATTEMPTS_LOG, STDERR_FILE, STDOUT_FILE,
 };
 use crate::output::errln;
 use crate::progress::{Progress, RoundProgress};
@@ -123,12 +123,7 @@ async fn drive_with<E: Executor>(
         study_id,
         budgets,
         executor,
-        points: store
-            .points(study_id)
-            .await?
-            .into_iter()
-            .map(|p| (p.id, p))
-            .collect(),
+        points: HashMap::new(),
         terminating: HashMap::new(),
         started: Instant::now(),
         last_poll: None,
@@ -157,12 +152,17 @@ async fn drive_with<E: Executor>(
         }
         if driver.poll_due() {
             let launched = store.launched_jobs(study_id).await?;
+            driver.keep_points_of(&launched, false).await?;
             driver.poll(&launched.iter().collect::<Vec<_>>()).await?;
         }
         // A final job stays final while this driver holds the study, so a tick reads the
-        // others and the jobs they follow, not the whole study: what is decided about
-        // them is the same, at a cost that does not grow with the finished jobs.
-        let jobs = store.unfinished_jobs(study_id).await?;
+        // others and the jobs they follow, not the whole study; of the pending jobs only
+        // as many as could be launched now (every launch slot, and the jobs still being
+        // terminated, which are pending but skipped). What is decided about them is the
+        // same, at a cost that grows with neither the finished nor the waiting jobs.
+        let pending_limit = driver.budgets.max_parallel + driver.terminating.len();
+        let jobs = store.unfinished_jobs(study_id, pending_limit).await?;
+        driver.keep_points_of(&jobs, true).await?;
         driver.stop_converged(&jobs).await;
         let terminating: HashSet<i64> = driver.terminating.keys().copied().collect();
         let actions = decide::settle_and_launch(&jobs, &driver.budgets, &terminating, |job| {
@@ -186,14 +186,18 @@ async fn drive_with<E: Executor>(
             driver.started.elapsed().as_secs_f64()
         );
     }
-    let jobs = store.jobs(study_id).await?;
-    let count = |state: JobState| jobs.iter().filter(|j| j.state() == state).count();
+    let counts = store.job_counts(study_id).await?;
+    let count = |state: JobState| counts.get(&state).copied().unwrap_or(0);
     Ok(Summary {
         ending,
         succeeded: count(JobState::Succeeded),
         failed: count(JobState::Failed),
         cancelled: count(JobState::Cancelled),
-        unfinished: jobs.iter().filter(|j| !j.state().is_final()).count(),
+        unfinished: counts
+            .iter()
+            .filter(|(state, _)| !state.is_final())
+            .map(|(_, n)| n)
+            .sum(),
     })
 }
 
@@ -203,6 +207,8 @@ struct Driver<'a, E> {
     study_id: i64,
     budgets: Budgets,
     executor: E,
+    /// The design points of the jobs the driver reads (those of the last tick and the
+    /// last poll), not the whole study's: see [`Driver::keep_points_of`].
     points: HashMap<i64, PointRow>,
     /// Jobs whose terminated attempt may still be dying (by handle): not relaunched yet,
     /// so two attempts never share a run directory.
@@ -222,16 +228,26 @@ impl<E: Executor> Driver<'_, E> {
     /// Jobs caught between render and launch by a stopped `orch`: re-attached when the
     /// executor still knows them (Slurm), else rendered again.
     async fn reconcile(&mut self) -> Result<(), DriverError> {
-        for job in self.store.jobs(self.study_id).await? {
-            // Submitted and running jobs always have a handle: they are polled.
-            if job.state() != JobState::Rendered {
-                continue;
-            }
-            match self
-                .executor
-                .recover_unrecorded(&self.spec_name(&job), Path::new(&job.run_dir))
-                .await
-            {
+        // Submitted and running jobs always have a handle: they are polled.
+        let rendered = self
+            .store
+            .jobs_in_state(self.study_id, JobState::Rendered)
+            .await?;
+        if rendered.is_empty() {
+            return Ok(());
+        }
+        let names: Vec<String> = rendered.iter().map(|job| self.spec_name(job)).collect();
+        let unrecorded: Vec<Unrecorded> = rendered
+            .iter()
+            .zip(&names)
+            .map(|(job, name)| Unrecorded {
+                spec_name: name,
+                run_dir: Path::new(&job.run_dir),
+            })
+            .collect();
+        let recovered = self.executor.recover_unrecorded(&unrecorded).await;
+        for (job, recovered) in rendered.iter().zip(recovered) {
+            match recovered {
                 Recovered::Attached(handle) => {
                     tracing::warn!(job = %job.name, %handle, "re-attached to a job a stopped orch submitted before recording it");
                     self.store.mark_submitted(job.id, &handle).await?;
@@ -240,7 +256,7 @@ impl<E: Executor> Driver<'_, E> {
                 Recovered::Killed(pid) => {
                     tracing::warn!(job = %job.name, pid, "killed a solver launched by a stopped orch before its handle was recorded");
                 }
-                _ => {}
+                Recovered::Nothing => {}
             }
             self.store
                 .requeue(
@@ -258,9 +274,43 @@ impl<E: Executor> Driver<'_, E> {
         format!("{}/{}", self.study.name, job.name)
     }
 
-    fn case(&self, job: &JobRow) -> orch_adapters::Case {
-        let natural = &self.points[&job.point_id].natural;
-        self.study.case_at(natural, job.seed as u64)
+    /// The case of `job`'s design point with its seed; its point read from the store
+    /// when the driver does not hold it.
+    async fn case(&self, job: &JobRow) -> Result<orch_adapters::Case, StoreError> {
+        if let Some(point) = self.points.get(&job.point_id) {
+            return Ok(self.study.case_at(&point.natural, job.seed as u64));
+        }
+        let point = self.store.points_by_id(&[job.point_id]).await?;
+        let point = point.first().ok_or_else(|| StoreError::Query {
+            what: "read a job's design point",
+            source: sqlx::Error::RowNotFound,
+        })?;
+        Ok(self.study.case_at(&point.natural, job.seed as u64))
+    }
+
+    /// Holds the design points of `jobs` (reading those it lacks in one query) and,
+    /// when `forget_others`, lets go of every other: what the driver holds grows with
+    /// the jobs it reads, not with the study.
+    async fn keep_points_of(
+        &mut self,
+        jobs: &[JobRow],
+        forget_others: bool,
+    ) -> Result<(), StoreError> {
+        if forget_others {
+            let wanted: HashSet<i64> = jobs.iter().map(|j| j.point_id).collect();
+            self.points.retain(|id, _| wanted.contains(id));
+        }
+        let mut missing: Vec<i64> = jobs
+            .iter()
+            .map(|j| j.point_id)
+            .filter(|id| !self.points.contains_key(id))
+            .collect();
+        missing.sort_unstable();
+        missing.dedup();
+        for point in self.store.points_by_id(&missing).await? {
+            self.points.insert(point.id, point);
+        }
+        Ok(())
     }
 
     fn poll_due(&mut self) -> bool {
@@ -293,8 +343,9 @@ impl<E: Executor> Driver<'_, E> {
     async fn render(&self, job: &JobRow, run_dir: &Path) -> Result<CommandSpec, String> {
         let Some(kind) = job.stage_kind() else {
             let simulation = &self.study.simulation;
+            let case = self.case(job).await.map_err(|e| e.to_string())?;
             simulation
-                .render(&self.case(job), run_dir)
+                .render(&case, run_dir)
                 .map_err(|e| format!("cannot render the case: {e}"))?;
             return Ok(simulation.command());
         };
@@ -311,8 +362,9 @@ impl<E: Executor> Driver<'_, E> {
             .job_responses(upstream.id)
             .await
             .map_err(|e| e.to_string())?;
+        let upstream_case = self.case(&upstream).await.map_err(|e| e.to_string())?;
         let upstream = Upstream {
-            case: &self.case(&upstream),
+            case: &upstream_case,
             responses: &responses,
         };
         stage
@@ -338,7 +390,10 @@ impl<E: Executor> Driver<'_, E> {
         let (air, cfd_job) = self.air_before(job).await?;
         let simulation = &self.study.simulation;
         simulation
-            .render(&in_moving_air(&self.case(job), &air), run_dir)
+            .render(
+                &in_moving_air(&self.case(job).await.map_err(|e| e.to_string())?, &air),
+                run_dir,
+            )
             .map_err(|e| format!("cannot render the case: {e}"))?;
         let field = orch_adapters::openfoam::air_field_csv(Path::new(&cfd_job.run_dir))
             .map_err(|e| format!("cannot read the air of {}: {e}", cfd_job.name))?;
@@ -514,11 +569,14 @@ impl<E: Executor> Driver<'_, E> {
             if !self.convergence.due(job.id, stop, now) || run_dir.join(STOP_FILE).exists() {
                 continue;
             }
-            let (case, simulation, dir) = (
-                self.case(job),
-                self.study.simulation.clone(),
-                run_dir.clone(),
-            );
+            let case = match self.case(job).await {
+                Ok(case) => case,
+                Err(e) => {
+                    tracing::warn!(job = %job.name, "cannot check stop_when: {e}");
+                    continue;
+                }
+            };
+            let (simulation, dir) = (self.study.simulation.clone(), run_dir.clone());
             let so_far =
                 tokio::task::spawn_blocking(move || simulation.results_so_far(&case, &dir))
                     .await
@@ -680,7 +738,7 @@ impl<E: Executor> Driver<'_, E> {
     async fn collect(&mut self, job: &JobRow) -> Result<(), DriverError> {
         let unreadable =
             |reason| decide::retry_or_fail(job, &self.budgets, Failure::Unreadable(reason));
-        let mut case = self.case(job);
+        let mut case = self.case(job).await?;
         let simulation = self.study.simulation.clone();
         let stage = match job.stage_kind() {
             Some(AIR_STAGE) => match self.air_before(job).await {
@@ -826,10 +884,8 @@ impl<E: Executor> Driver<'_, E> {
             return Ok(());
         }
         self.last_progress = Some(Instant::now());
-        let jobs = self.store.jobs(self.study_id).await?;
-        let round_of = |job: &JobRow| self.points.get(&job.point_id).map_or(0, |p| p.round);
-        let round = jobs.iter().map(round_of).max().unwrap_or(0);
-        let round_jobs: Vec<&JobRow> = jobs.iter().filter(|j| round_of(j) == round).collect();
+        let (round, jobs) = self.store.latest_round_jobs(self.study_id).await?;
+        let round_jobs: Vec<&JobRow> = jobs.iter().collect();
         let progress = RoundProgress::of(
             round,
             self.study.rounds,

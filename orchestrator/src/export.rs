@@ -8,10 +8,11 @@
 //! series in long form instead: one row per `(job, series, t, value)`.
 
 use std::collections::{BTreeMap, BTreeSet, HashMap};
+use std::io::{self, Write};
 
 use serde_json::{Map, Value};
 
-use crate::store::{Store, StoreError, StudyRow};
+use crate::store::{SeriesPages, Store, StoreError, StudyRow};
 use crate::study::Study;
 
 /// One cell of an exported table.
@@ -91,17 +92,7 @@ pub fn abscissa_of(study: Option<&Study>, name: &str) -> String {
 impl Table {
     /// The table as CSV text (RFC 4180).
     pub fn to_csv(&self) -> String {
-        let mut out = String::new();
-        let line = |cells: Vec<String>, out: &mut String| {
-            let quoted: Vec<String> = cells.iter().map(|c| csv_field(c)).collect();
-            out.push_str(&quoted.join(","));
-            out.push_str("\r\n");
-        };
-        line(self.headers.clone(), &mut out);
-        for row in &self.rows {
-            line(row.iter().map(cell_text).collect(), &mut out);
-        }
-        out
+        self.render(Format::Csv)
     }
 
     /// The table as a JSON array of objects keyed by header, in column order.
@@ -109,31 +100,102 @@ impl Table {
         let rows = self
             .rows
             .iter()
-            .map(|row| {
-                let object: Map<String, Value> = self
-                    .headers
-                    .iter()
-                    .zip(row)
-                    .map(|(h, c)| (h.clone(), cell_json(c)))
-                    .collect();
-                Value::Object(object)
-            })
+            .map(|row| Value::Object(json_object(&self.headers, row)))
             .collect();
         Value::Array(rows)
     }
 
-    /// The table in `format`, ending with a line break.
+    /// The table in `format`, ending with a line break (JSON is pretty-printed).
     pub fn render(&self, format: Format) -> String {
-        match format {
-            Format::Csv => self.to_csv(),
+        let mut out = Vec::new();
+        let mut writer =
+            TableWriter::new(&mut out, format, self.headers.clone()).expect("writing to memory");
+        for row in &self.rows {
+            writer.row(row).expect("writing to memory");
+        }
+        writer.finish().expect("writing to memory");
+        String::from_utf8(out).expect("the table's text is UTF-8")
+    }
+}
+
+/// Writes a table row by row, in the text [`Table::render`] gives for the whole table,
+/// so that a table too large to hold is never held.
+pub struct TableWriter<W: Write> {
+    out: W,
+    format: Format,
+    headers: Vec<String>,
+    rows: usize,
+}
+
+impl<W: Write> TableWriter<W> {
+    /// Starts the table: CSV's header line, or JSON's opening bracket (written with
+    /// the first row, as `[]` alone stands for no rows).
+    pub fn new(mut out: W, format: Format, headers: Vec<String>) -> io::Result<TableWriter<W>> {
+        if format == Format::Csv {
+            write_csv_line(&mut out, headers.iter().map(String::as_str))?;
+        }
+        Ok(TableWriter {
+            out,
+            format,
+            headers,
+            rows: 0,
+        })
+    }
+
+    /// Writes one row, as long as the headers.
+    pub fn row(&mut self, cells: &[Cell]) -> io::Result<()> {
+        match self.format {
+            Format::Csv => {
+                let texts: Vec<String> = cells.iter().map(cell_text).collect();
+                write_csv_line(&mut self.out, texts.iter().map(String::as_str))?;
+            }
             Format::Json => {
-                let mut text =
-                    serde_json::to_string_pretty(&self.to_json()).expect("JSON of plain values");
-                text.push('\n');
-                text
+                // serde_json's pretty form of an array: each element on its own lines,
+                // indented one level more than the brackets.
+                let object = Value::Object(json_object(&self.headers, cells));
+                let text = serde_json::to_string_pretty(&object).map_err(io::Error::other)?;
+                self.out
+                    .write_all(if self.rows == 0 { b"[\n" } else { b",\n" })?;
+                for (i, line) in text.lines().enumerate() {
+                    if i > 0 {
+                        self.out.write_all(b"\n")?;
+                    }
+                    write!(self.out, "  {line}")?;
+                }
             }
         }
+        self.rows += 1;
+        Ok(())
     }
+
+    /// Ends the table; the rows written.
+    pub fn finish(mut self) -> io::Result<usize> {
+        if self.format == Format::Json {
+            self.out
+                .write_all(if self.rows == 0 { b"[]\n" } else { b"\n]\n" })?;
+        }
+        self.out.flush()?;
+        Ok(self.rows)
+    }
+}
+
+/// One CSV record and its CRLF.
+fn write_csv_line<'a>(
+    out: &mut impl Write,
+    fields: impl Iterator<Item = &'a str>,
+) -> io::Result<()> {
+    let quoted: Vec<String> = fields.map(csv_field).collect();
+    out.write_all(quoted.join(",").as_bytes())?;
+    out.write_all(b"\r\n")
+}
+
+/// A row as a JSON object keyed by `headers`, in column order.
+fn json_object(headers: &[String], cells: &[Cell]) -> Map<String, Value> {
+    headers
+        .iter()
+        .zip(cells)
+        .map(|(h, c)| (h.clone(), cell_json(c)))
+        .collect()
 }
 
 /// One CSV field, quoted when it holds a comma, a quote or a line break.
@@ -245,53 +307,60 @@ pub async fn runs_table(
     Ok(Table { headers, rows })
 }
 
-/// Every series of every job in long form: `job, series, unit, over, x, value`, where
-/// `over` names the abscissa with its unit (`t [s]`, or `r [m]` for a radial density).
-pub async fn series_table(
+/// Why `orch export` could not write its table.
+#[derive(Debug, thiserror::Error)]
+pub enum ExportError {
+    /// The store could not be read.
+    #[error(transparent)]
+    Store(#[from] StoreError),
+    /// The output could not be written.
+    #[error("cannot write the table: {0}")]
+    Write(#[from] io::Error),
+}
+
+/// The headers of [`write_series`]'s table.
+pub const SERIES_HEADERS: [&str; 6] = ["job", "series", "unit", "over", "x", "value"];
+
+/// Writes every series of every job in long form to `out`: `job, series, unit, over, x,
+/// value`, where `over` names the abscissa with its unit (`t [s]`, or `r [m]` for a
+/// radial density); in job, series and abscissa order. The store is read a page of
+/// jobs at a time and each row written as it comes, so memory does not grow with the
+/// study. Returns the rows written.
+pub async fn write_series(
     store: &Store,
     row: &StudyRow,
     study: Option<&Study>,
-) -> Result<Table, StoreError> {
-    let names: HashMap<i64, String> = store
-        .jobs(row.id)
-        .await?
-        .into_iter()
-        .map(|j| (j.id, j.name))
-        .collect();
+    format: Format,
+    out: impl Write,
+) -> Result<usize, ExportError> {
+    let headers = SERIES_HEADERS.iter().map(|s| s.to_string()).collect();
+    let mut writer = TableWriter::new(out, format, headers)?;
     let mut units: HashMap<String, (Cell, Cell)> = HashMap::new();
-    let rows = store
-        .study_series(row.id)
-        .await?
-        .into_iter()
-        .map(|(job_id, series, t, value)| {
+    let mut pages = SeriesPages::of(row.id);
+    while let Some(page) = pages.next(store).await? {
+        for point in page {
             let (unit, over) = units
-                .entry(series.clone())
+                .entry(point.series.clone())
                 .or_insert_with(|| {
                     (
-                        unit_of(study, &series)
+                        unit_of(study, &point.series)
                             .map(Cell::Text)
                             .unwrap_or(Cell::Empty),
-                        Cell::Text(abscissa_of(study, &series)),
+                        Cell::Text(abscissa_of(study, &point.series)),
                     )
                 })
                 .clone();
-            vec![
-                Cell::Text(names.get(&job_id).cloned().unwrap_or_default()),
-                Cell::Text(series),
+            writer.row(&[
+                Cell::Text(point.job),
+                Cell::Text(point.series),
                 unit,
                 over,
-                Cell::Real(t),
-                Cell::Real(value),
-            ]
-        })
-        .collect();
-    Ok(Table {
-        headers: ["job", "series", "unit", "over", "x", "value"]
-            .iter()
-            .map(|s| s.to_string())
-            .collect(),
-        rows,
-    })
+                Cell::Real(point.x),
+                Cell::Real(point.value),
+            ])?;
+        }
+    }
+    Ok(writer.finish()?)
 }
 
 #[cfg(test)]
@@ -327,6 +396,94 @@ mod tests {
         assert_eq!(json[0]["note"], Value::Null);
         assert_eq!(json[1]["note"], "a, \"quoted\"\nline");
         assert_eq!(json.as_array().unwrap().len(), 2);
+    }
+
+    #[test]
+    fn json_written_row_by_row_is_serde_json_s_pretty_array() {
+        let whole = table();
+        let expected = serde_json::to_string_pretty(&whole.to_json()).unwrap() + "\n";
+        assert_eq!(whole.render(Format::Json), expected);
+        let empty = Table {
+            headers: whole.headers.clone(),
+            rows: vec![],
+        };
+        assert_eq!(empty.render(Format::Json), "[]\n");
+        assert_eq!(empty.render(Format::Csv), "job,x [m],note\r\n");
+    }
+
+    /// A small stored study with series on some jobs: the long table pages through the
+    /// jobs, one without series in between, and keeps job, series and time order.
+    #[tokio::test]
+    async fn series_are_written_a_page_of_jobs_at_a_time_in_order() {
+        use crate::store::{JobResults, SeriesPages};
+        let text = "name: s\nsolver: liggghts\nfactors:\n  - {name: outlet_diameter, min: 0.020, max: 0.028, unit: m}\ndesign: {type: full_factorial, levels: 3}\n";
+        let dir = tempfile::tempdir().unwrap();
+        let store = Store::open(dir.path()).await.unwrap();
+        let study = Study::from_text(std::path::Path::new("s.yaml"), text, None).unwrap();
+        let id = store
+            .insert_study(&study, std::path::Path::new("s.yaml"), dir.path())
+            .await
+            .unwrap();
+        let jobs = store.jobs(id).await.unwrap();
+        for (k, job) in jobs.iter().enumerate().filter(|(k, _)| *k != 1) {
+            store.mark_rendered(job.id).await.unwrap();
+            store.mark_running(job.id, "1:1", 0.0).await.unwrap();
+            let results = JobResults {
+                series: vec![
+                    ("b".into(), vec![(0.2, k as f64), (0.1, -1.0)]),
+                    ("a".into(), vec![(0.5, 1.0)]),
+                ],
+                ..JobResults::default()
+            };
+            store.mark_succeeded(job.id, 0, &results).await.unwrap();
+        }
+        let mut pages = SeriesPages::with_page_size(id, 1);
+        let mut sizes = Vec::new();
+        while let Some(page) = pages.next(&store).await.unwrap() {
+            sizes.push(page.len());
+        }
+        assert_eq!(sizes, vec![3, 0, 3]);
+
+        let row = store.study_by_name("s").await.unwrap().unwrap();
+        let mut csv = Vec::new();
+        let rows = write_series(&store, &row, Some(&study), Format::Csv, &mut csv)
+            .await
+            .unwrap();
+        assert_eq!(rows, 6);
+        let csv = String::from_utf8(csv).unwrap();
+        let lines: Vec<&str> = csv.split("\r\n").collect();
+        assert_eq!(lines[0], "job,series,unit,over,x,value");
+        let (first, last) = (&jobs[0].name, &jobs[2].name);
+        let keys: Vec<String> = lines[1..7]
+            .iter()
+            .map(|l| {
+                l.split(',')
+                    .enumerate()
+                    .filter(|(i, _)| [0, 1, 4, 5].contains(i))
+                    .map(|(_, f)| f)
+                    .collect::<Vec<_>>()
+                    .join(" ")
+            })
+            .collect();
+        assert_eq!(
+            keys,
+            [
+                format!("{first} a 0.5 1.0"),
+                format!("{first} b 0.1 -1.0"),
+                format!("{first} b 0.2 0.0"),
+                format!("{last} a 0.5 1.0"),
+                format!("{last} b 0.1 -1.0"),
+                format!("{last} b 0.2 2.0"),
+            ]
+        );
+        let mut json = Vec::new();
+        write_series(&store, &row, Some(&study), Format::Json, &mut json)
+            .await
+            .unwrap();
+        let parsed: Value = serde_json::from_slice(&json).unwrap();
+        assert_eq!(parsed.as_array().unwrap().len(), 6);
+        assert_eq!(parsed[5]["value"], 2.0);
+        assert_eq!(parsed[5]["job"], last.as_str());
     }
 
     #[test]

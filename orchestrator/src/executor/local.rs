@@ -18,7 +18,7 @@ use tokio::process::{Child, Command};
 use super::process::{self, ProcessHandle};
 use super::{
     read_exit_status, Executor, JobStatus, LaunchError, LaunchSpec, Launched, PollError, Recovered,
-    Report, Watched, ATTEMPTS_LOG, EXIT_STATUS_FILE, STDERR_FILE, STDOUT_FILE,
+    Report, Unrecorded, Watched, ATTEMPTS_LOG, EXIT_STATUS_FILE, STDERR_FILE, STDOUT_FILE,
 };
 
 /// How long a terminated job has between SIGTERM and SIGKILL.
@@ -162,11 +162,13 @@ impl Executor for LocalExecutor {
         }
     }
 
-    async fn recover_unrecorded(&mut self, _spec_name: &str, run_dir: &Path) -> Recovered {
-        match kill_unrecorded(run_dir) {
-            Some(pid) => Recovered::Killed(pid),
-            None => Recovered::Nothing,
-        }
+    async fn recover_unrecorded(&mut self, jobs: &[Unrecorded<'_>]) -> Vec<Recovered> {
+        jobs.iter()
+            .map(|job| match kill_unrecorded(job.run_dir) {
+                Some(pid) => Recovered::Killed(pid),
+                None => Recovered::Nothing,
+            })
+            .collect()
     }
 
     fn tidy(&mut self) -> usize {

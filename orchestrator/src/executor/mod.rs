@@ -39,13 +39,10 @@ pub trait Executor {
     async fn launch(&mut self, spec: &LaunchSpec) -> Result<Launched, LaunchError>;
 
     /// Starts or submits `specs`, all of one study; one answer per spec, in order. By
-    /// default one [`Executor::launch`] each; Slurm submits them as job arrays.
+    /// default one [`Executor::launch`] each ([`launch_each`]); Slurm submits them as
+    /// job arrays.
     async fn launch_many(&mut self, specs: &[LaunchSpec]) -> Vec<Result<Launched, LaunchError>> {
-        let mut answers = Vec::with_capacity(specs.len());
-        for spec in specs {
-            answers.push(self.launch(spec).await);
-        }
-        answers
+        launch_each(self, specs).await
     }
 
     /// Where each of `jobs` stands, in the same order; one query for all of them. An
@@ -57,10 +54,11 @@ pub trait Executor {
     /// Slurm: one `scancel`).
     async fn terminate(&mut self, handles: &[&str]);
 
-    /// Deals with a job that a stopped `orch` launched but did not record: a local
-    /// process is killed (it will run again), a Slurm job is found by name and
-    /// re-attached (so nothing is submitted twice).
-    async fn recover_unrecorded(&mut self, spec_name: &str, run_dir: &Path) -> Recovered;
+    /// Deals with jobs that a stopped `orch` launched but did not record, all of one
+    /// study: a local process is killed (it will run again), a Slurm job is found by
+    /// name and re-attached (so nothing is submitted twice; one `squeue` for all of
+    /// them). One answer per job, in order.
+    async fn recover_unrecorded(&mut self, jobs: &[Unrecorded<'_>]) -> Vec<Recovered>;
 
     /// Housekeeping between polls (reaps children, escalates terminations); returns the
     /// number of jobs still being terminated.
@@ -92,6 +90,28 @@ pub struct LaunchSpec {
     pub run_dir: PathBuf,
     /// The command the adapter describes.
     pub command: CommandSpec,
+}
+
+/// [`Executor::launch`] of each of `specs` in turn, one answer each, in order: what
+/// [`Executor::launch_many`] does unless an executor can do better.
+pub async fn launch_each<E: Executor + ?Sized>(
+    executor: &mut E,
+    specs: &[LaunchSpec],
+) -> Vec<Result<Launched, LaunchError>> {
+    let mut answers = Vec::with_capacity(specs.len());
+    for spec in specs {
+        answers.push(executor.launch(spec).await);
+    }
+    answers
+}
+
+/// A job a stopped `orch` may have launched without recording it.
+#[derive(Debug, Clone, Copy)]
+pub struct Unrecorded<'a> {
+    /// `study/job`, as in [`LaunchSpec::name`].
+    pub spec_name: &'a str,
+    /// Its run directory.
+    pub run_dir: &'a Path,
 }
 
 /// A launched job.

@@ -12,7 +12,7 @@
 pub mod html;
 pub mod plots;
 
-use std::collections::{BTreeMap, BTreeSet, HashMap};
+use std::collections::{BTreeMap, HashMap};
 use std::fmt::Write;
 
 use orch_metamodel::surrogate::Surrogate;
@@ -794,38 +794,38 @@ async fn runs_section(store: &Store, data: &Data<'_>) -> Result<String, StoreErr
         .collect();
     out.push_str(&table(&table_of_runs.headers, &rows));
 
-    let names: HashMap<i64, String> = store
-        .jobs(data.row.id)
-        .await?
-        .into_iter()
-        .map(|j| (j.id, j.name))
-        .collect();
+    // Read a page of jobs at a time, each job's series thinned to what is drawn as
+    // soon as it is whole: the points held are the points drawn, not every stored one.
     let mut series: BTreeMap<String, BTreeMap<String, Vec<(f64, f64)>>> = BTreeMap::new();
-    for (job, name, t, value) in store.study_series(data.row.id).await? {
-        let job = names.get(&job).cloned().unwrap_or_default();
-        series
-            .entry(name)
-            .or_default()
-            .entry(job)
-            .or_default()
-            .push((t, value));
+    let mut pages = crate::store::SeriesPages::of(data.row.id);
+    while let Some(page) = pages.next(store).await? {
+        let mut page = page.into_iter().peekable();
+        while let Some(first) = page.next() {
+            let mut points = vec![(first.x, first.value)];
+            while let Some(next) =
+                page.next_if(|p| p.job_id == first.job_id && p.series == first.series)
+            {
+                points.push((next.x, next.value));
+            }
+            series
+                .entry(first.series)
+                .or_default()
+                .insert(first.job, decimate(&points, MAX_LINE_POINTS));
+        }
     }
     if series.is_empty() {
         out.push_str("<p class=\"note\">No run stored a time series.</p>\n");
         return Ok(out);
     }
-    let shown: BTreeSet<&String> = series.keys().collect();
     let _ = writeln!(
         out,
         "<h3>Series of every run</h3>\n<p class=\"note\">{} series, each with one line per run.</p>",
-        shown.len()
+        series.len()
     );
-    for (name, by_job) in &series {
+    for (name, by_job) in series {
+        let name = &name;
         let unit = data.unit(name);
-        let lines: Vec<(String, Vec<(f64, f64)>)> = by_job
-            .iter()
-            .map(|(j, p)| (j.clone(), decimate(p, MAX_LINE_POINTS)))
-            .collect();
+        let lines: Vec<(String, Vec<(f64, f64)>)> = by_job.into_iter().collect();
         let over = crate::export::abscissa_of(data.study, name);
         let svg = plots::lines(
             &format!("Series: {name}"),

@@ -19,6 +19,7 @@ mod series;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+use std::sync::LazyLock;
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 use sqlx::sqlite::{SqliteConnectOptions, SqliteJournalMode, SqlitePoolOptions, SqliteSynchronous};
@@ -33,6 +34,7 @@ pub use rows::{
     Decision, FactorRow, JobRow, JobState, PointRow, StudyRow, StudyState, UnknownState,
     DESIGN_STAGE,
 };
+pub use series::{SeriesPages, SeriesPoint};
 
 use crate::study::Study;
 
@@ -414,32 +416,91 @@ impl Store {
 
     /// A study's jobs that are submitted or running (to poll), in id order.
     pub async fn launched_jobs(&self, study_id: i64) -> Result<Vec<JobRow>, StoreError> {
-        sqlx::query_as(
-            "SELECT * FROM jobs WHERE study_id = ? AND state IN ('submitted', 'running') ORDER BY id",
-        )
-        .bind(study_id)
-        .fetch_all(&self.pool)
-        .await
-        .map_err(query_error("list launched jobs"))
+        static SQL: LazyLock<String> = LazyLock::new(|| {
+            format!(
+                "SELECT * FROM jobs WHERE study_id = ? AND state IN ({}) ORDER BY id",
+                rows::state_list(JobState::is_launched)
+            )
+        });
+        sqlx::query_as(&SQL)
+            .bind(study_id)
+            .fetch_all(&self.pool)
+            .await
+            .map_err(query_error("list launched jobs"))
     }
 
-    /// A study's jobs that are not final, and the jobs those follow (`after_job_id`,
-    /// whatever their state), in id order: what the driver decides about at each tick.
-    /// Its cost grows with the unfinished jobs, not with the study (the index
-    /// `jobs_by_state`).
-    pub async fn unfinished_jobs(&self, study_id: i64) -> Result<Vec<JobRow>, StoreError> {
-        sqlx::query_as(
-            "SELECT * FROM jobs WHERE study_id = ?1
-               AND (state IN ('pending', 'rendered', 'submitted', 'running')
-                    OR id IN (SELECT after_job_id FROM jobs
-                              WHERE study_id = ?1 AND after_job_id IS NOT NULL
-                                AND state IN ('pending', 'rendered', 'submitted', 'running')))
-             ORDER BY id",
+    /// A study's jobs in `state`, in id order.
+    pub async fn jobs_in_state(
+        &self,
+        study_id: i64,
+        state: JobState,
+    ) -> Result<Vec<JobRow>, StoreError> {
+        sqlx::query_as("SELECT * FROM jobs WHERE study_id = ? AND state = ? ORDER BY id")
+            .bind(study_id)
+            .bind(state.as_str())
+            .fetch_all(&self.pool)
+            .await
+            .map_err(query_error("list jobs in a state"))
+    }
+
+    /// How many of a study's jobs are in each state (states without jobs left out).
+    pub async fn job_counts(&self, study_id: i64) -> Result<BTreeMap<JobState, usize>, StoreError> {
+        let counted: Vec<(String, i64, i64)> = sqlx::query_as(
+            "SELECT state, COUNT(*), MIN(id) FROM jobs WHERE study_id = ? GROUP BY state",
         )
         .bind(study_id)
         .fetch_all(&self.pool)
         .await
-        .map_err(query_error("list unfinished jobs"))
+        .map_err(query_error("count jobs by state"))?;
+        let mut counts = BTreeMap::new();
+        for (state, n, first) in counted {
+            let state = rows::parse_state("jobs", first, state)?;
+            counts.insert(state, usize::try_from(n).unwrap_or(0));
+        }
+        Ok(counts)
+    }
+
+    /// What the driver decides about at each tick, in id order: a study's jobs that
+    /// are rendered, submitted or running; the first `pending_limit` pending jobs that
+    /// can be acted on (they follow no job, or one that is final: launched, failed or
+    /// cancelled with it); and the jobs all those follow (`after_job_id`). A pending
+    /// job that waits for an unfinished one is left out; so are the pending jobs past
+    /// the limit, which cannot be launched this tick anyway. So a tick's cost grows
+    /// with the jobs running and the limit, not with the study (the index
+    /// `jobs_by_state`), and the list is empty exactly when no job is unfinished: the
+    /// first job of any chain of pending jobs follows no job or a final or running one.
+    pub async fn unfinished_jobs(
+        &self,
+        study_id: i64,
+        pending_limit: usize,
+    ) -> Result<Vec<JobRow>, StoreError> {
+        static SQL: LazyLock<String> = LazyLock::new(|| {
+            let open = rows::state_list(|s| !s.is_final() && s != JobState::Pending);
+            let pending = rows::state_list(|s| s == JobState::Pending);
+            let finals = rows::state_list(JobState::is_final);
+            format!(
+                "WITH open AS (
+                     SELECT id, after_job_id FROM jobs WHERE study_id = ?1 AND state IN ({open})
+                 ), ready AS (
+                     SELECT j.id, j.after_job_id FROM jobs j LEFT JOIN jobs up ON up.id = j.after_job_id
+                      WHERE j.study_id = ?1 AND j.state IN ({pending})
+                        AND (j.after_job_id IS NULL OR up.state IN ({finals}))
+                      ORDER BY j.id LIMIT ?2
+                 ), picked AS (
+                     SELECT id, after_job_id FROM open UNION ALL SELECT id, after_job_id FROM ready
+                 )
+                 SELECT * FROM jobs
+                  WHERE id IN (SELECT id FROM picked
+                               UNION SELECT after_job_id FROM picked WHERE after_job_id IS NOT NULL)
+                  ORDER BY id"
+            )
+        });
+        sqlx::query_as(&SQL)
+            .bind(study_id)
+            .bind(i64::try_from(pending_limit).unwrap_or(i64::MAX))
+            .fetch_all(&self.pool)
+            .await
+            .map_err(query_error("list unfinished jobs"))
     }
 
     /// One job by id.
@@ -471,24 +532,48 @@ impl Store {
         .fetch_all(&self.pool)
         .await
         .map_err(query_error("list design points"))?;
-        let mut points: Vec<PointRow> = Vec::new();
-        for row in rows {
-            let id: i64 = row.get(0);
-            if points.last().is_none_or(|p| p.id != id) {
-                points.push(PointRow {
-                    id,
-                    round: row.get(1),
-                    idx: row.get(2),
-                    purpose: row.get(5),
-                    coded: Vec::new(),
-                    natural: Vec::new(),
-                });
-            }
-            let point = points.last_mut().expect("pushed above");
-            point.coded.push(row.get(3));
-            point.natural.push(row.get(4));
+        Ok(collect_points(rows))
+    }
+
+    /// The design points of `ids` (those that exist), in id order.
+    pub async fn points_by_id(&self, ids: &[i64]) -> Result<Vec<PointRow>, StoreError> {
+        if ids.is_empty() {
+            return Ok(Vec::new());
         }
-        Ok(points)
+        let ids = serde_json::to_string(ids).expect("JSON of integers");
+        let rows = sqlx::query(
+            "SELECT p.id, p.round, p.idx, v.coded, v.natural, p.purpose FROM points p
+             JOIN point_values v ON v.point_id = p.id
+             WHERE p.id IN (SELECT value FROM json_each(?)) ORDER BY p.id, v.factor_idx",
+        )
+        .bind(ids)
+        .fetch_all(&self.pool)
+        .await
+        .map_err(query_error("read design points"))?;
+        Ok(collect_points(rows))
+    }
+
+    /// The latest round that has jobs (0 for none) and its jobs, in id order: what the
+    /// terminal's bar counts.
+    pub async fn latest_round_jobs(&self, study_id: i64) -> Result<(i64, Vec<JobRow>), StoreError> {
+        let (round,): (i64,) = sqlx::query_as(
+            "SELECT COALESCE(MAX(p.round), 0) FROM jobs j JOIN points p ON p.id = j.point_id
+             WHERE j.study_id = ?",
+        )
+        .bind(study_id)
+        .fetch_one(&self.pool)
+        .await
+        .map_err(query_error("find the latest round"))?;
+        let jobs = sqlx::query_as(
+            "SELECT j.* FROM jobs j JOIN points p ON p.id = j.point_id
+             WHERE j.study_id = ? AND p.round = ? ORDER BY j.id",
+        )
+        .bind(study_id)
+        .bind(round)
+        .fetch_all(&self.pool)
+        .await
+        .map_err(query_error("list the latest round's jobs"))?;
+        Ok((round, jobs))
     }
 
     /// Responses of every job of a study, by job id then name.
@@ -1000,6 +1085,29 @@ async fn refuse_if_driven(
         }
         _ => Ok(()),
     }
+}
+
+/// Design points from rows of `(id, round, idx, coded, natural, purpose)`, one row per
+/// factor, ordered by point and factor.
+fn collect_points(rows: Vec<sqlx::sqlite::SqliteRow>) -> Vec<PointRow> {
+    let mut points: Vec<PointRow> = Vec::new();
+    for row in rows {
+        let id: i64 = row.get(0);
+        if points.last().is_none_or(|p| p.id != id) {
+            points.push(PointRow {
+                id,
+                round: row.get(1),
+                idx: row.get(2),
+                purpose: row.get(5),
+                coded: Vec::new(),
+                natural: Vec::new(),
+            });
+        }
+        let point = points.last_mut().expect("pushed above");
+        point.coded.push(row.get(3));
+        point.natural.push(row.get(4));
+    }
+    points
 }
 
 /// A value bound into a transition's assignments.

@@ -130,6 +130,22 @@ impl JobState {
             JobState::Succeeded | JobState::Failed | JobState::Cancelled
         )
     }
+
+    /// True for submitted and running: an executor holds the job, and it is polled.
+    pub fn is_launched(self) -> bool {
+        matches!(self, JobState::Submitted | JobState::Running)
+    }
+}
+
+/// The states for which `keep` holds as an SQL list (`'submitted', 'running'`), spelled
+/// by [`JobState::as_str`], so that the store's queries name no state of their own.
+pub(super) fn state_list(keep: impl Fn(JobState) -> bool) -> String {
+    JobState::ALL
+        .into_iter()
+        .filter(|&state| keep(state))
+        .map(|state| format!("'{}'", state.as_str()))
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 impl FromStr for JobState {

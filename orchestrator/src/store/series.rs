@@ -1,21 +1,92 @@
-//! Reading a whole study's time series at once, for `orch export --series` and reports.
+//! Reading a whole study's time series, for `orch export --series` and reports: a page
+//! of jobs at a time, so that what is held in memory does not grow with the study.
 
 use super::{query_error, Store, StoreError};
 
-impl Store {
-    /// Every series point of every job of a study as `(job id, series, t, value)`, in
-    /// job, series and time order.
-    pub async fn study_series(
-        &self,
-        study_id: i64,
-    ) -> Result<Vec<(i64, String, f64, f64)>, StoreError> {
-        sqlx::query_as(
-            "SELECT s.job_id, s.name, s.t, s.value FROM series s JOIN jobs j ON j.id = s.job_id
-             WHERE j.study_id = ? ORDER BY s.job_id, s.name, s.t",
+/// One point of a stored series.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SeriesPoint {
+    /// The job's id.
+    pub job_id: i64,
+    /// The job's name within its study (`p000r0`).
+    pub job: String,
+    /// The series' name.
+    pub series: String,
+    /// The abscissa (time or radius).
+    pub x: f64,
+    /// The value.
+    pub value: f64,
+}
+
+/// Jobs whose series one page holds.
+pub const JOBS_PER_PAGE: usize = 200;
+
+/// A study's series read in pages of [`JOBS_PER_PAGE`] jobs, in job id order; each page
+/// in job, series and abscissa order (the index `series_by_job`).
+#[derive(Debug, Clone)]
+pub struct SeriesPages {
+    study_id: i64,
+    /// The last job id of the page read before.
+    after: i64,
+    jobs_per_page: usize,
+    done: bool,
+}
+
+impl SeriesPages {
+    /// The pages of `study_id`, from its first job.
+    pub fn of(study_id: i64) -> SeriesPages {
+        SeriesPages::with_page_size(study_id, JOBS_PER_PAGE)
+    }
+
+    /// The pages of `study_id`, `jobs_per_page` jobs each (at least one).
+    pub fn with_page_size(study_id: i64, jobs_per_page: usize) -> SeriesPages {
+        SeriesPages {
+            study_id,
+            after: i64::MIN,
+            jobs_per_page: jobs_per_page.max(1),
+            done: false,
+        }
+    }
+
+    /// The series points of the next page of jobs (empty for a page of jobs without
+    /// series), or `None` after the last job.
+    pub async fn next(&mut self, store: &Store) -> Result<Option<Vec<SeriesPoint>>, StoreError> {
+        if self.done {
+            return Ok(None);
+        }
+        let ids: Vec<(i64,)> =
+            sqlx::query_as("SELECT id FROM jobs WHERE study_id = ? AND id > ? ORDER BY id LIMIT ?")
+                .bind(self.study_id)
+                .bind(self.after)
+                .bind(i64::try_from(self.jobs_per_page).unwrap_or(i64::MAX))
+                .fetch_all(&store.pool)
+                .await
+                .map_err(query_error("list a page of jobs"))?;
+        let (Some(&(first,)), Some(&(last,))) = (ids.first(), ids.last()) else {
+            self.done = true;
+            return Ok(None);
+        };
+        self.after = last;
+        let rows: Vec<(i64, String, String, f64, f64)> = sqlx::query_as(
+            "SELECT s.job_id, j.name, s.name, s.t, s.value FROM series s JOIN jobs j ON j.id = s.job_id
+             WHERE j.study_id = ? AND s.job_id BETWEEN ? AND ? ORDER BY s.job_id, s.name, s.t",
         )
-        .bind(study_id)
-        .fetch_all(&self.pool)
+        .bind(self.study_id)
+        .bind(first)
+        .bind(last)
+        .fetch_all(&store.pool)
         .await
-        .map_err(query_error("read a study's time series"))
+        .map_err(query_error("read a study's time series"))?;
+        Ok(Some(
+            rows.into_iter()
+                .map(|(job_id, job, series, x, value)| SeriesPoint {
+                    job_id,
+                    job,
+                    series,
+                    x,
+                    value,
+                })
+                .collect(),
+        ))
     }
 }

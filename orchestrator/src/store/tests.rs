@@ -335,3 +335,81 @@ async fn a_comparison_is_stored_and_read_back_with_missing_figures_as_nan() {
     assert_eq!(read.relative_difference, -0.5);
     assert_eq!(read.verdict, "regression");
 }
+
+/// The driver's tick reads the jobs that run, the first pending jobs it could act on,
+/// and the jobs those follow; not a pending job waiting for an unfinished one, nor the
+/// pending jobs past the limit, and nothing once every job is final.
+#[tokio::test]
+async fn a_tick_reads_the_open_jobs_and_only_the_first_pending_ones_it_could_act_on() {
+    let (_dir, store, id) = store_with_study().await;
+    let jobs = store.jobs(id).await.unwrap();
+    let (running, done) = (jobs[0].id, jobs[1].id);
+    store.mark_rendered(running).await.unwrap();
+    store.mark_running(running, "1:2", 1.0).await.unwrap();
+    store.mark_rendered(done).await.unwrap();
+    store.mark_running(done, "3:4", 1.0).await.unwrap();
+    store
+        .mark_succeeded(done, 0, &JobResults::default())
+        .await
+        .unwrap();
+    let stage_after = |upstream: &JobRow, name: &'static str| {
+        sqlx::query(
+            "INSERT INTO jobs (study_id, point_id, replicate, name, seed, state, run_dir, stage, after_job_id)
+             VALUES (?, ?, 0, ?, 1, 'pending', 'runs/x', 'post', ?) RETURNING id",
+        )
+        .bind(id)
+        .bind(upstream.point_id)
+        .bind(name)
+        .bind(upstream.id)
+        .fetch_one(&store.pool)
+    };
+    let waiting: i64 = stage_after(&jobs[0], "p000r0-post").await.unwrap().get(0);
+    let ready: i64 = stage_after(&jobs[1], "p000r1-post").await.unwrap().get(0);
+    let ids = |listed: Vec<JobRow>| listed.iter().map(|j| j.id).collect::<Vec<_>>();
+
+    let first = ids(store.unfinished_jobs(id, 2).await.unwrap());
+    assert_eq!(first, vec![running, jobs[2].id, jobs[3].id]);
+
+    let all = ids(store.unfinished_jobs(id, 100).await.unwrap());
+    let mut expected: Vec<i64> = jobs.iter().map(|j| j.id).collect();
+    expected.push(ready);
+    // The succeeded job is read as the upstream of the stage that may start now.
+    assert_eq!(all, expected);
+    assert!(!all.contains(&waiting));
+
+    assert_eq!(
+        ids(store.launched_jobs(id).await.unwrap()),
+        vec![running],
+        "submitted or running"
+    );
+    let counts = store.job_counts(id).await.unwrap();
+    assert_eq!(counts[&JobState::Pending], 18);
+    assert_eq!(counts[&JobState::Running], 1);
+    assert_eq!(counts[&JobState::Succeeded], 1);
+    assert_eq!(
+        ids(store.jobs_in_state(id, JobState::Succeeded).await.unwrap()),
+        vec![done]
+    );
+
+    for job in store.jobs(id).await.unwrap() {
+        if !job.state().is_final() {
+            store.mark_cancelled(job.id, "test").await.unwrap();
+        }
+    }
+    assert!(store.unfinished_jobs(id, 100).await.unwrap().is_empty());
+}
+
+/// The driver reads the design points of the jobs it handles, not the study's.
+#[tokio::test]
+async fn points_are_read_by_id_and_the_latest_round_with_its_jobs() {
+    let (_dir, store, id) = store_with_study().await;
+    let all = store.points(id).await.unwrap();
+    let picked = store
+        .points_by_id(&[all[2].id, all[0].id, i64::MAX])
+        .await
+        .unwrap();
+    assert_eq!(picked, vec![all[0].clone(), all[2].clone()]);
+    assert!(store.points_by_id(&[]).await.unwrap().is_empty());
+    let (round, jobs) = store.latest_round_jobs(id).await.unwrap();
+    assert_eq!((round, jobs.len()), (0, 18));
+}

@@ -25,8 +25,8 @@ use tokio::process::Command;
 
 use self::parse::{SlurmId, SlurmJob, SlurmState};
 use super::{
-    read_exit_status, Executor, JobStatus, LaunchError, LaunchSpec, Launched, PollError, Recovered,
-    Report, StopCause, Watched, EXIT_STATUS_FILE,
+    launch_each, read_exit_status, Executor, JobStatus, LaunchError, LaunchSpec, Launched,
+    PollError, Recovered, Report, StopCause, Unrecorded, Watched, EXIT_STATUS_FILE,
 };
 
 /// Default time between two `squeue` calls.
@@ -259,47 +259,95 @@ impl SlurmExecutor {
             .collect())
     }
 
-    /// The array task that runs the job of `run_dir` in a study's arrays, if slurmctld
-    /// still holds one: found by the arrays' name and their task lists.
-    async fn find_array_task(&mut self, study: &str, run_dir: &Path) -> Option<SlurmId> {
-        let name = format!("--name={}", script::array_job_name(study));
-        let text = self
+    /// Runs `sbatch` on the batch script [`SlurmExecutor::prepare`] wrote into
+    /// `spec`'s run directory: a batch job of its own.
+    async fn sbatch_job(&mut self, spec: &LaunchSpec) -> Result<Launched, LaunchError> {
+        let launch_error = |source| LaunchError {
+            program: "sbatch".into(),
+            run_dir: spec.run_dir.clone(),
+            source,
+        };
+        let stdout = self
             .run(
-                "squeue",
-                &[
-                    "--array",
-                    "--noheader",
-                    "--states=all",
-                    &name,
-                    "--format=%i|%Z",
-                ],
-                None,
+                "sbatch",
+                &["--parsable", script::BATCH_SCRIPT],
+                Some(&spec.run_dir),
             )
             .await
-            .ok()?;
-        let wanted = std::fs::canonicalize(run_dir).unwrap_or_else(|_| run_dir.to_path_buf());
-        let mut lists: HashMap<String, Vec<PathBuf>> = HashMap::new();
-        let mut found = None;
-        for (id, dir) in text.lines().filter_map(|l| l.trim().split_once('|')) {
-            let Ok(id) = id.parse::<SlurmId>() else {
-                continue;
-            };
-            let Some(task) = id.task else { continue };
-            let list = lists.entry(dir.to_string()).or_insert_with(|| {
-                std::fs::read_to_string(Path::new(dir).join(script::ARRAY_TASKS))
+            .map_err(|e| {
+                launch_error(std::io::Error::other(format!(
+                    "sbatch refused the job: {e}"
+                )))
+            })?;
+        let id = parse::parse_sbatch_output(&stdout)
+            .map_err(|e| launch_error(std::io::Error::other(e)))?;
+        Ok(Launched {
+            handle: handle_of(SlurmId::job(id)),
+            queued: true,
+        })
+    }
+}
+
+/// The `squeue --format` of [`find_unrecorded`]'s listing: id, name, working directory.
+pub const SQUEUE_NAMES_FORMAT: &str = "%i|%j|%Z";
+
+/// Which Slurm job each of `jobs` (all of `study`) is, from one `squeue --array
+/// --format=`[`SQUEUE_NAMES_FORMAT`] listing of the study's arrays and the jobs' own
+/// names: an array task whose line of its array's task list (read from the array's
+/// folder, its working directory) is the job's run directory, else a job of its own
+/// name run in that directory; the newest, which orch submitted last, when several
+/// are. A job found in neither is [`Recovered::Nothing`].
+pub fn find_unrecorded(study: &str, listing: &str, jobs: &[Unrecorded<'_>]) -> Vec<Recovered> {
+    let array_name = script::array_job_name(study);
+    let listed: Vec<(SlurmId, &str, &Path)> = listing
+        .lines()
+        .filter_map(|line| {
+            let mut fields = line.trim().splitn(3, '|');
+            let id = fields.next()?.parse::<SlurmId>().ok()?;
+            Some((id, fields.next()?, Path::new(fields.next()?)))
+        })
+        .collect();
+    // Each array's task list, read once.
+    let mut lists: HashMap<&Path, Vec<PathBuf>> = HashMap::new();
+    for &(id, name, dir) in &listed {
+        if name == array_name && id.task.is_some() {
+            lists.entry(dir).or_insert_with(|| {
+                std::fs::read_to_string(dir.join(script::ARRAY_TASKS))
                     .map(|t| t.lines().map(PathBuf::from).collect())
                     .unwrap_or_default()
             });
-            let same = list.get(task as usize).is_some_and(|listed| {
-                listed == run_dir || std::fs::canonicalize(listed).is_ok_and(|l| l == wanted)
-            });
-            if same {
-                // The newest array holding it: the one orch last submitted.
-                found = found.max(Some(id));
-            }
         }
-        found
     }
+    jobs.iter()
+        .map(|job| {
+            let canonical = std::fs::canonicalize(job.run_dir).ok();
+            let same = |dir: &Path| {
+                dir == job.run_dir
+                    || canonical.as_deref().is_some_and(|wanted| {
+                        dir == wanted || std::fs::canonicalize(dir).is_ok_and(|d| d == wanted)
+                    })
+            };
+            let task = listed
+                .iter()
+                .filter(|(id, name, _)| *name == array_name && id.task.is_some())
+                .filter(|(id, _, dir)| {
+                    let listed_dir = lists.get(dir).and_then(|l| l.get(id.task? as usize));
+                    listed_dir.is_some_and(|d| same(d))
+                })
+                .map(|(id, _, _)| *id)
+                .max();
+            let own_name = script::slurm_job_name(job.spec_name);
+            let own = || {
+                listed
+                    .iter()
+                    .filter(|(id, name, dir)| id.task.is_none() && *name == own_name && same(dir))
+                    .map(|(id, _, _)| *id)
+                    .max()
+            };
+            task.or_else(own)
+                .map_or(Recovered::Nothing, |id| Recovered::Attached(handle_of(id)))
+        })
+        .collect()
 }
 
 /// What a job's state means for orch: Slurm's view where the batch script could not
@@ -369,42 +417,19 @@ fn slurm_output(id: SlurmId) -> String {
 
 impl Executor for SlurmExecutor {
     async fn launch(&mut self, spec: &LaunchSpec) -> Result<Launched, LaunchError> {
-        let launch_error = |source| LaunchError {
-            program: "sbatch".into(),
-            run_dir: spec.run_dir.clone(),
-            source,
-        };
         self.prepare(spec)?;
-        let stdout = self
-            .run(
-                "sbatch",
-                &["--parsable", script::BATCH_SCRIPT],
-                Some(&spec.run_dir),
-            )
-            .await
-            .map_err(|e| {
-                launch_error(std::io::Error::other(format!(
-                    "sbatch refused the job: {e}"
-                )))
-            })?;
-        let id = parse::parse_sbatch_output(&stdout)
-            .map_err(|e| launch_error(std::io::Error::other(e)))?;
-        Ok(Launched {
-            handle: handle_of(SlurmId::job(id)),
-            queued: true,
-        })
+        self.sbatch_job(spec).await
     }
 
     /// Jobs that ask for the same resources go out as arrays of at most the array size;
     /// a job alone (or with arrays turned off) as a batch job of its own.
     async fn launch_many(&mut self, specs: &[LaunchSpec]) -> Vec<Result<Launched, LaunchError>> {
+        if specs.len() < 2 {
+            return launch_each(self, specs).await;
+        }
         let size = self.array_size().await;
-        if specs.len() < 2 || size < 2 {
-            let mut answers = Vec::with_capacity(specs.len());
-            for spec in specs {
-                answers.push(self.launch(spec).await);
-            }
-            return answers;
+        if size < 2 {
+            return launch_each(self, specs).await;
         }
         let mut answers: Vec<Option<Result<Launched, LaunchError>>> =
             specs.iter().map(|_| None).collect();
@@ -425,7 +450,8 @@ impl Executor for SlurmExecutor {
             for chunk in members.chunks(size) {
                 let chunk_specs: Vec<&LaunchSpec> = chunk.iter().map(|&i| &specs[i]).collect();
                 let submitted = if chunk.len() == 1 {
-                    self.launch(chunk_specs[0]).await.map(|l| vec![l])
+                    // Prepared above: its batch script is written.
+                    self.sbatch_job(chunk_specs[0]).await.map(|l| vec![l])
                 } else {
                     self.submit_array(&chunk_specs).await
                 };
@@ -485,32 +511,31 @@ impl Executor for SlurmExecutor {
         }
     }
 
-    async fn recover_unrecorded(&mut self, spec_name: &str, run_dir: &Path) -> Recovered {
-        let study = spec_name.split('/').next().unwrap_or(spec_name);
-        if let Some(task) = self.find_array_task(study, run_dir).await {
-            return Recovered::Attached(handle_of(task));
-        }
-        let name = format!("--name={}", script::slurm_job_name(spec_name));
-        let Ok(text) = self
+    async fn recover_unrecorded(&mut self, jobs: &[Unrecorded<'_>]) -> Vec<Recovered> {
+        let Some(first) = jobs.first() else {
+            return Vec::new();
+        };
+        let study = first.spec_name.split('/').next().unwrap_or(first.spec_name);
+        // One query for all: the study's arrays and each job's own name.
+        let names: Vec<String> = std::iter::once(script::array_job_name(study))
+            .chain(jobs.iter().map(|job| script::slurm_job_name(job.spec_name)))
+            .collect();
+        let name = format!("--name={}", names.join(","));
+        let format = format!("--format={SQUEUE_NAMES_FORMAT}");
+        match self
             .run(
                 "squeue",
-                &["--noheader", "--states=all", &name, "--format=%i|%Z"],
+                &["--array", "--noheader", "--states=all", &name, &format],
                 None,
             )
             .await
-        else {
-            return Recovered::Nothing;
-        };
-        let wanted = std::fs::canonicalize(run_dir).unwrap_or_else(|_| run_dir.to_path_buf());
-        // The newest job of that name in that directory: the one orch last submitted.
-        text.lines()
-            .filter_map(|line| line.trim().split_once('|'))
-            .filter(|(_, dir)| Path::new(dir) == wanted || Path::new(dir) == run_dir)
-            .filter_map(|(id, _)| id.parse::<u64>().ok())
-            .max()
-            .map_or(Recovered::Nothing, |id| {
-                Recovered::Attached(handle_of(SlurmId::job(id)))
-            })
+        {
+            Ok(listing) => find_unrecorded(study, &listing, jobs),
+            Err(e) => {
+                tracing::warn!("cannot ask squeue about jobs a stopped orch submitted: {e}");
+                jobs.iter().map(|_| Recovered::Nothing).collect()
+            }
+        }
     }
 
     fn tidy(&mut self) -> usize {
@@ -628,6 +653,60 @@ mod tests {
         assert_eq!(report_of(seven, None, Some(0)).status, JobStatus::Exited(0));
         assert_eq!(report_of(seven, None, Some(2)).status, JobStatus::Exited(2));
         assert_eq!(report_of(seven, None, None).status, JobStatus::Lost);
+    }
+
+    /// After `kill -9`, one listing of the study's arrays and the jobs' own names tells
+    /// which job is which: an array task by its line of its array's task list (the
+    /// newest array holding it), a job of its own by name and directory.
+    #[test]
+    fn jobs_left_rendered_are_found_in_one_listing() {
+        let root = tempfile::tempdir().unwrap();
+        let runs = root.path().join("runs/s");
+        let dir = |job: &str| runs.join(job);
+        for job in ["p000r0", "p001r0", "p002r0", "p003r0"] {
+            std::fs::create_dir_all(dir(job)).unwrap();
+        }
+        let arrays = runs.join(ARRAYS_DIR);
+        let (older, newer) = (arrays.join("1-1-1"), arrays.join("2-1-2"));
+        for (array, tasks) in [(&older, vec!["p000r0", "p001r0"]), (&newer, vec!["p001r0"])] {
+            std::fs::create_dir_all(array).unwrap();
+            let list: String = tasks
+                .iter()
+                .map(|t| format!("{}\n", dir(t).display()))
+                .collect();
+            std::fs::write(array.join(script::ARRAY_TASKS), list).unwrap();
+        }
+        let listing = format!(
+            "100_0|orch-array.s|{older}\n100_1|orch-array.s|{older}\n105_0|orch-array.s|{newer}\n\
+             200|orch.s.p002r0|{p2}\n201|orch.s.p003r0|{elsewhere}\nnot a line\n",
+            older = older.display(),
+            newer = newer.display(),
+            p2 = dir("p002r0").display(),
+            elsewhere = root.path().display(),
+        );
+        let names = ["s/p000r0", "s/p001r0", "s/p002r0", "s/p003r0"];
+        let dirs: Vec<PathBuf> = names.iter().map(|n| dir(&n[2..])).collect();
+        let jobs: Vec<Unrecorded> = names
+            .iter()
+            .zip(&dirs)
+            .map(|(name, run_dir)| Unrecorded {
+                spec_name: name,
+                run_dir,
+            })
+            .collect();
+        assert_eq!(
+            find_unrecorded("s", &listing, &jobs),
+            vec![
+                Recovered::Attached("slurm:100_0".into()),
+                Recovered::Attached("slurm:105_0".into()),
+                Recovered::Attached("slurm:200".into()),
+                Recovered::Nothing,
+            ]
+        );
+        assert_eq!(
+            find_unrecorded("s", "", &jobs[..1]),
+            vec![Recovered::Nothing]
+        );
     }
 
     #[test]

@@ -3,7 +3,7 @@
 //!
 //! The order of the particles is the stepper's: at each neighbour-list rebuild it
 //! sorts them along a space-filling curve so that particles near in space are near in
-//! memory ([`crate::neighbour::CellGrid::curve_rank`]). Ids are unique and stable;
+//! memory ([`crate::neighbour::CurveOrder`]). Ids are unique and stable;
 //! look a particle up by id with [`Particles::index_of`].
 
 use crate::material::ParticleType;

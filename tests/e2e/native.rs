@@ -148,7 +148,7 @@ fn same_responses_as_before_the_equipment_seam(status: &serde_json::Value) {
             assert_eq!(
                 before.to_bits(),
                 now.to_bits(),
-                "{name} {response}: {now} now, {before} before the seam"
+                "{name} {response}: {now} now, {before} recorded"
             );
         }
     }

@@ -581,8 +581,8 @@ impl Simulation {
     /// Removes particles past the sink, inserts the inflows' due batches, sorts the
     /// particles along the curve, rebuilds the pair list and wall candidates.
     fn rebuild(&mut self) {
-        // New particles come last, with ids above every other, and start without
-        // history.
+        // The inflows append their particles (ids above every other); the sort below
+        // places them, and having no former index they start without history.
         let before = self.particles.len();
         let mut inflows = std::mem::take(&mut self.inflows);
         for inflow in &mut inflows {

@@ -106,6 +106,10 @@ pub struct Reorder {
     /// A permutation of all indices: the kept ones first, in their new order, then
     /// the dropped ones.
     permutation: Vec<u32>,
+    /// The first index of each cycle of `permutation` longer than one, found once so
+    /// that every array is reordered without bookkeeping of its own; particles that
+    /// keep their place (most, between two rebuilds) cost nothing.
+    cycle_starts: Vec<u32>,
     kept: usize,
 }
 
@@ -120,8 +124,24 @@ impl Reorder {
         }
         let mut permutation = order.to_vec();
         permutation.extend((0..len as u32).filter(|&i| !named[i as usize]));
+        // `named` is reused as "visited".
+        let visited = &mut named;
+        visited.fill(false);
+        let mut cycle_starts = Vec::new();
+        for start in 0..len {
+            if visited[start] || permutation[start] as usize == start {
+                continue;
+            }
+            cycle_starts.push(start as u32);
+            let mut at = start;
+            while !visited[at] {
+                visited[at] = true;
+                at = permutation[at] as usize;
+            }
+        }
         Self {
             permutation,
+            cycle_starts,
             kept: order.len(),
         }
     }
@@ -131,15 +151,11 @@ impl Reorder {
     pub fn apply<T: Copy>(&self, values: &mut Vec<T>) {
         let p = &self.permutation;
         assert_eq!(values.len(), p.len(), "one value per particle");
-        let mut done = vec![false; p.len()];
-        for start in 0..p.len() {
-            if done[start] {
-                continue;
-            }
+        for &start in &self.cycle_starts {
+            let start = start as usize;
             let held = values[start];
             let mut at = start;
             loop {
-                done[at] = true;
                 let from = p[at] as usize;
                 if from == start {
                     values[at] = held;

@@ -948,7 +948,19 @@ async fn show_status(
                 .unwrap_or_default();
             let detail = StudyDetail::load(&store, row).await?;
             if as_json {
-                outln!("{}", serde_json::to_string_pretty(&detail.json(&project))?)?;
+                // Written as it is made: a study's JSON grows with its jobs.
+                use std::io::Write;
+                let mut stdout = std::io::BufWriter::new(std::io::stdout().lock());
+                let written = detail
+                    .write_json(&project, &mut stdout)
+                    .map_err(std::io::Error::from)
+                    .and_then(|()| stdout.write_all(b"\n"))
+                    .and_then(|()| stdout.flush());
+                match written {
+                    // The reader has gone (`| head`): nobody wants the rest.
+                    Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => {}
+                    other => other?,
+                }
             } else {
                 out!("{}", detail.table(&responses))?;
             }
@@ -1170,18 +1182,26 @@ async fn export(
         }
         return Ok(exit_codes::SUCCESS);
     }
-    let table = crate::export::runs_table(&store, &row, study.as_ref()).await?;
-    let text = table.render(format);
+    // Written a row at a time, as the series are.
+    let study = study.as_ref();
     match output {
         Some(path) => {
-            write_output(path, text.as_bytes())?;
-            errln!(
-                "orch: {} rows written to {}",
-                table.rows.len(),
-                path.display()
-            );
+            let file = std::io::BufWriter::new(create_output(path)?);
+            let rows = crate::export::write_runs(&store, &row, study, format, file)
+                .await
+                .with_context(|| format!("cannot export to {}", path.display()))?;
+            errln!("orch: {rows} rows written to {}", path.display());
         }
-        None => out!("{text}")?,
+        None => {
+            let stdout = std::io::BufWriter::new(std::io::stdout().lock());
+            match crate::export::write_runs(&store, &row, study, format, stdout).await {
+                Err(crate::export::ExportError::Write(e))
+                    if e.kind() == std::io::ErrorKind::BrokenPipe => {}
+                other => {
+                    other?;
+                }
+            }
+        }
     }
     Ok(exit_codes::SUCCESS)
 }

@@ -946,7 +946,11 @@ async fn show_status(
                 .await?
                 .map(|s| s.shown_responses())
                 .unwrap_or_default();
-            let detail = StudyDetail::load(&store, row).await?;
+            let detail = if as_json {
+                StudyDetail::load(&store, row).await?
+            } else {
+                StudyDetail::load_shown(&store, row, &responses).await?
+            };
             if as_json {
                 // Written as it is made: a study's JSON grows with its jobs.
                 use std::io::Write;
@@ -1141,7 +1145,11 @@ async fn show_fits(
         .into_iter()
         .map(|f| f.name)
         .collect();
-    let runs = crate::surfaces::design_runs(&store, row.id).await?;
+    // The report judges each fit from its own response's runs: only those are read.
+    let mut fitted: Vec<String> = chosen.fits.iter().map(|f| f.response.clone()).collect();
+    fitted.sort();
+    fitted.dedup();
+    let runs = crate::surfaces::design_runs_named(&store, row.id, &fitted).await?;
     let round_runs = runs.get(&chosen.round).map(Vec::as_slice).unwrap_or(&[]);
     out!("{}", status::fits_report(chosen, &names, round_runs))?;
     Ok(exit_codes::SUCCESS)

@@ -97,7 +97,7 @@ async fn observed(
 ) -> Result<HashMap<String, Observed>, StoreError> {
     // Each of the study's tables is read once; the design runs are made from them.
     let points = store.points(study_id).await?;
-    let values = store.responses(study_id).await?;
+    let values = store.responses_named(study_id, responses).await?;
     let jobs = store.jobs(study_id).await?;
     let design_runs = surfaces::design_runs_from(store, study_id, &points, &jobs, &values)
         .await?

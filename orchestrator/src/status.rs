@@ -96,11 +96,42 @@ pub struct JobDetail {
 impl StudyDetail {
     /// Reads a study's detail from the store.
     pub async fn load(store: &Store, study: StudyRow) -> Result<StudyDetail, StoreError> {
+        StudyDetail::load_with(store, study, None).await
+    }
+
+    /// [`StudyDetail::load`] for [`StudyDetail::table`] showing `shown`: of the
+    /// responses only those and the ones the rounds fitted are read (the jobs'
+    /// `responses` hold just those).
+    pub async fn load_shown(
+        store: &Store,
+        study: StudyRow,
+        shown: &[String],
+    ) -> Result<StudyDetail, StoreError> {
+        let mut names: Vec<String> = store
+            .rounds(study.id)
+            .await?
+            .iter()
+            .flat_map(|r| r.fits.iter().map(|f| f.response.clone()))
+            .chain(shown.iter().cloned())
+            .collect();
+        names.sort();
+        names.dedup();
+        StudyDetail::load_with(store, study, Some(&names)).await
+    }
+
+    async fn load_with(
+        store: &Store,
+        study: StudyRow,
+        names: Option<&[String]>,
+    ) -> Result<StudyDetail, StoreError> {
         let factors = store.factors(study.id).await?;
         // The points, responses and jobs are read once: the design runs are made from
         // the same rows.
         let points = store.points(study.id).await?;
-        let mut responses = store.responses(study.id).await?;
+        let mut responses = match names {
+            Some(names) => store.responses_named(study.id, names).await?,
+            None => store.responses(study.id).await?,
+        };
         let jobs = store.jobs(study.id).await?;
         let runs = surfaces::design_runs_from(store, study.id, &points, &jobs, &responses).await?;
         let points: BTreeMap<i64, _> = points.into_iter().map(|p| (p.id, p)).collect();

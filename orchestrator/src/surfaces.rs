@@ -53,6 +53,19 @@ pub async fn design_runs(
     design_runs_from(store, study_id, &points, &jobs, &responses).await
 }
 
+/// [`design_runs`] with only the responses `names` (distinct) read and kept: what a
+/// command that judges or refits some responses' surfaces needs.
+pub async fn design_runs_named(
+    store: &Store,
+    study_id: i64,
+    names: &[String],
+) -> Result<BTreeMap<i64, Vec<Run>>, StoreError> {
+    let points = store.points(study_id).await?;
+    let responses = store.responses_named(study_id, names).await?;
+    let jobs = store.jobs(study_id).await?;
+    design_runs_from(store, study_id, &points, &jobs, &responses).await
+}
+
 /// [`design_runs`] from the study's points, jobs and responses (by job id) that the
 /// caller has already read, so that a command reads each of them once; only the
 /// rounds' boxes are read here.

@@ -624,6 +624,19 @@ impl Store {
         .fetch_all(&self.pool)
         .await
         .map_err(query_error("list response names"))?;
+        self.responses_named(study_id, &names).await
+    }
+
+    /// The responses `names` (distinct) of every job of a study, by job id then name:
+    /// what [`Store::responses`] gives restricted to those names, for a command that
+    /// needs only some (`orch fit`, the round analysis, status's table); each value
+    /// is found through the primary key, so the cost grows with the jobs and names
+    /// asked for, not with every stored value.
+    pub async fn responses_named(
+        &self,
+        study_id: i64,
+        names: &[String],
+    ) -> Result<BTreeMap<i64, BTreeMap<String, f64>>, StoreError> {
         let mut out: BTreeMap<i64, BTreeMap<String, f64>> = BTreeMap::new();
         if names.is_empty() {
             return Ok(out);
@@ -635,7 +648,7 @@ impl Store {
                 .bind(study_id)
                 .bind(after)
                 .bind(ROWS_PER_PAGE);
-            for name in &names {
+            for name in names {
                 query = query.bind(name);
             }
             let rows = query
@@ -1169,10 +1182,12 @@ fn responses_by_job_sql(n_names: usize) -> String {
     let columns: Vec<String> = (0..n_names)
         .map(|k| format!("MAX(CASE WHEN r.name = ?{} THEN r.value END)", k + 4))
         .collect();
+    let names: Vec<String> = (0..n_names).map(|k| format!("?{}", k + 4)).collect();
     format!(
-        "SELECT j.id, {} FROM jobs j JOIN responses r ON r.job_id = j.id
+        "SELECT j.id, {} FROM jobs j JOIN responses r ON r.job_id = j.id AND r.name IN ({})
          WHERE j.study_id = ?1 AND j.id > ?2 GROUP BY j.id ORDER BY j.id LIMIT ?3",
-        columns.join(", ")
+        columns.join(", "),
+        names.join(", ")
     )
 }
 

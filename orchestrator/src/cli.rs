@@ -830,7 +830,8 @@ async fn conclude(store: &Store, row: &StudyRow, study: &Study) {
     let recommendation = async {
         let rounds = store.rounds(row.id).await?;
         let factors = store.factors(row.id).await?;
-        let runs = crate::surfaces::design_runs(store, row.id).await?;
+        let fitted = crate::surfaces::fitted_names(&rounds);
+        let runs = crate::surfaces::design_runs_named(store, row.id, &fitted).await?;
         anyhow::Ok(status::recommendation(study, &rounds, &factors, &runs))
     };
     match recommendation.await {
@@ -893,10 +894,12 @@ async fn drive_rounds(
         match rounds::advance(store, study_id, study, runs_dir).await? {
             rounds::Advance::NextRound(next) => {
                 errln!("orch: round {} analysed; round {next} starts", next - 1);
+                let rounds = store.rounds(study_id).await?;
+                let fitted = crate::surfaces::fitted_names(&rounds);
                 for line in status::rounds_summary(
-                    &store.rounds(study_id).await?,
+                    &rounds,
                     &store.factors(study_id).await?,
-                    &crate::surfaces::design_runs(store, study_id).await?,
+                    &crate::surfaces::design_runs_named(store, study_id, &fitted).await?,
                 )
                 .lines()
                 {

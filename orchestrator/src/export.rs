@@ -295,6 +295,54 @@ impl RunRows {
         row: &StudyRow,
         study: Option<&Study>,
     ) -> Result<RunRows, StoreError> {
+        let responses = store.responses(row.id).await?;
+        let jobs = store.jobs(row.id).await?;
+        RunRows::of(store, row, study, responses, jobs).await
+    }
+
+    /// The rows of the jobs at the positions (in id order, ascending) that `choose`
+    /// picks from the number of jobs, with the headers of every row, and that
+    /// number: only the chosen jobs' responses are read and kept.
+    pub async fn read_chosen(
+        store: &Store,
+        row: &StudyRow,
+        study: Option<&Study>,
+        choose: impl FnOnce(usize) -> Vec<usize>,
+    ) -> Result<(RunRows, usize), StoreError> {
+        let all = store.jobs(row.id).await?;
+        let total = all.len();
+        let chosen: std::collections::HashSet<usize> = choose(total).into_iter().collect();
+        let jobs: Vec<JobRow> = all
+            .into_iter()
+            .enumerate()
+            .filter(|(k, _)| chosen.contains(k))
+            .map(|(_, job)| job)
+            .collect();
+        let mut responses = BTreeMap::new();
+        for job in &jobs {
+            responses.insert(job.id, store.job_responses(job.id).await?);
+        }
+        let mut runs = RunRows::of(store, row, study, responses, jobs).await?;
+        // The headers name every stored response, not only the chosen rows'.
+        let stored: BTreeSet<String> = store.response_names(row.id).await?.into_iter().collect();
+        let names = response_order(study, &stored);
+        runs.headers.truncate(runs.headers.len() - runs.names.len());
+        runs.headers.extend(
+            names
+                .iter()
+                .map(|n| header(n, unit_of(study, n).as_deref())),
+        );
+        runs.names = names;
+        Ok((runs, total))
+    }
+
+    async fn of(
+        store: &Store,
+        row: &StudyRow,
+        study: Option<&Study>,
+        responses: BTreeMap<i64, BTreeMap<String, f64>>,
+        jobs: Vec<JobRow>,
+    ) -> Result<RunRows, StoreError> {
         let factors = store.factors(row.id).await?;
         let points: HashMap<i64, _> = store
             .points(row.id)
@@ -302,7 +350,6 @@ impl RunRows {
             .into_iter()
             .map(|p| (p.id, p))
             .collect();
-        let responses = store.responses(row.id).await?;
         let stored: BTreeSet<String> = responses.values().flat_map(|r| r.keys().cloned()).collect();
         let names = response_order(study, &stored);
         let mut headers: Vec<String> = [
@@ -329,7 +376,7 @@ impl RunRows {
             points,
             responses,
             names,
-            jobs: store.jobs(row.id).await?,
+            jobs,
         })
     }
 

@@ -53,6 +53,18 @@ pub async fn design_runs(
     design_runs_from(store, study_id, &points, &jobs, &responses).await
 }
 
+/// The responses `rounds` fitted, each once, in name order: what their surfaces,
+/// verdicts and warnings are judged from.
+pub fn fitted_names(rounds: &[crate::store::StoredRound]) -> Vec<String> {
+    let mut names: Vec<String> = rounds
+        .iter()
+        .flat_map(|r| r.fits.iter().map(|f| f.response.clone()))
+        .collect();
+    names.sort();
+    names.dedup();
+    names
+}
+
 /// [`design_runs`] with only the responses `names` (distinct) read and kept: what a
 /// command that judges or refits some responses' surfaces needs.
 pub async fn design_runs_named(

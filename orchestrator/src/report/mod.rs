@@ -48,13 +48,15 @@ pub async fn render(
     study: Option<&Study>,
 ) -> Result<String, StoreError> {
     let factors = store.factors(row.id).await?;
+    let rounds = store.rounds(row.id).await?;
     let data = Data {
         row,
         study,
         names: factors.iter().map(|f| f.name.clone()).collect(),
         factors,
-        rounds: store.rounds(row.id).await?,
-        runs: surfaces::design_runs(store, row.id).await?,
+        // The figures and warnings judge each fit from its own response's runs.
+        runs: surfaces::design_runs_named(store, row.id, &surfaces::fitted_names(&rounds)).await?,
+        rounds,
     };
     let mut body = String::new();
     let jobs = store.jobs(row.id).await?;
@@ -791,12 +793,13 @@ fn decimate(points: &[(f64, f64)], max: usize) -> Vec<(f64, f64)> {
 
 async fn runs_section(store: &Store, data: &Data<'_>) -> Result<String, StoreError> {
     let mut out = String::from("<h2>Runs</h2>\n<h3>Response values of every run</h3>\n");
-    // At most MAX_TABLE_RUNS rows, their cells made only for the rows shown.
-    let runs = crate::export::RunRows::read(store, data.row, data.study).await?;
-    let shown = shown::evenly(runs.len(), shown::MAX_TABLE_RUNS);
-    let rows: Vec<Vec<String>> = shown
-        .iter()
-        .map(|&k| {
+    // At most MAX_TABLE_RUNS rows, only their responses read.
+    let (runs, total) = crate::export::RunRows::read_chosen(store, data.row, data.study, |n| {
+        shown::evenly(n, shown::MAX_TABLE_RUNS)
+    })
+    .await?;
+    let rows: Vec<Vec<String>> = (0..runs.len())
+        .map(|k| {
             runs.row(k)
                 .iter()
                 .map(|cell| match cell {
@@ -809,8 +812,8 @@ async fn runs_section(store: &Store, data: &Data<'_>) -> Result<String, StoreErr
         })
         .collect();
     out.push_str(&table(&runs.headers, &rows));
-    if shown.len() < runs.len() {
-        out.push_str(&shown::note(shown.len(), runs.len(), "orch export"));
+    if runs.len() < total {
+        out.push_str(&shown::note(runs.len(), total, "orch export"));
     }
     drop(runs);
 

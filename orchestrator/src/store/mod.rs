@@ -616,15 +616,20 @@ impl Store {
         // One row per job with a column per response name rather than one row per
         // value: every row crosses from SQLite's thread with its own allocations, and
         // a study has an order of magnitude more values than jobs.
-        let names: Vec<String> = sqlx::query_scalar(
+        let names = self.response_names(study_id).await?;
+        self.responses_named(study_id, &names).await
+    }
+
+    /// The names of the responses a study's jobs stored, in name order.
+    pub async fn response_names(&self, study_id: i64) -> Result<Vec<String>, StoreError> {
+        sqlx::query_scalar(
             "SELECT DISTINCT r.name FROM responses r JOIN jobs j ON j.id = r.job_id
              WHERE j.study_id = ? ORDER BY r.name",
         )
         .bind(study_id)
         .fetch_all(&self.pool)
         .await
-        .map_err(query_error("list response names"))?;
-        self.responses_named(study_id, &names).await
+        .map_err(query_error("list response names"))
     }
 
     /// The responses `names` (distinct) of every job of a study, by job id then name:

@@ -617,7 +617,7 @@ impl Store {
         // value: every row crosses from SQLite's thread with its own allocations, and
         // a study has an order of magnitude more values than jobs.
         let names = self.response_names(study_id).await?;
-        self.responses_named(study_id, &names).await
+        self.responses_by_job(study_id, &names, false).await
     }
 
     /// The names of the responses a study's jobs stored, in name order.
@@ -642,11 +642,22 @@ impl Store {
         study_id: i64,
         names: &[String],
     ) -> Result<BTreeMap<i64, BTreeMap<String, f64>>, StoreError> {
+        self.responses_by_job(study_id, names, true).await
+    }
+
+    /// The values of `names` by job, through the primary key when `seek` (for a few
+    /// names), else from every response row (for all of them).
+    async fn responses_by_job(
+        &self,
+        study_id: i64,
+        names: &[String],
+        seek: bool,
+    ) -> Result<BTreeMap<i64, BTreeMap<String, f64>>, StoreError> {
         let mut out: BTreeMap<i64, BTreeMap<String, f64>> = BTreeMap::new();
         if names.is_empty() {
             return Ok(out);
         }
-        let sql = responses_by_job_sql(names.len());
+        let sql = responses_by_job_sql(names.len(), seek);
         let mut after = i64::MIN;
         loop {
             let mut query = sqlx::query(&sql)
@@ -1182,17 +1193,23 @@ const PAGE_LEN: usize = ROWS_PER_PAGE as usize;
 /// the last job id of the page before `?2`, the page's length `?3`, then the names
 /// (`?4` on). One row per job with responses, with its value of each name or NULL, in
 /// job id order (the index `jobs_by_study`). A job has at most one value per name
-/// (the primary key), so `MAX` returns it as stored.
-fn responses_by_job_sql(n_names: usize) -> String {
+/// (the primary key), so `MAX` returns it as stored. With `seek` only the names'
+/// rows are visited (`r.name IN …`, through the primary key); without, every response
+/// row of the job (cheaper when the names are all there are).
+fn responses_by_job_sql(n_names: usize, seek: bool) -> String {
     let columns: Vec<String> = (0..n_names)
         .map(|k| format!("MAX(CASE WHEN r.name = ?{} THEN r.value END)", k + 4))
         .collect();
     let names: Vec<String> = (0..n_names).map(|k| format!("?{}", k + 4)).collect();
+    let only = if seek {
+        format!(" AND r.name IN ({})", names.join(", "))
+    } else {
+        String::new()
+    };
     format!(
-        "SELECT j.id, {} FROM jobs j JOIN responses r ON r.job_id = j.id AND r.name IN ({})
+        "SELECT j.id, {} FROM jobs j JOIN responses r ON r.job_id = j.id{only}
          WHERE j.study_id = ?1 AND j.id > ?2 GROUP BY j.id ORDER BY j.id LIMIT ?3",
         columns.join(", "),
-        names.join(", ")
     )
 }
 

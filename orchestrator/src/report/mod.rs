@@ -7,6 +7,8 @@
 //! predictions, the Pareto chart of standardised effects, a multi-objective round's
 //! Pareto front (a chart in objective space for two objectives, and a table), the
 //! optimum (or compromise point), and the Monte Carlo summary. Per run: the response values and every stored series.
+//! A study with more runs than a chart can draw or a page can list shows an even choice
+//! of them ([`shown`]) and says so.
 //! The surfaces are refitted from the stored runs ([`crate::surfaces`]).
 
 pub mod html;

@@ -61,11 +61,14 @@ pub async fn render(
         rounds,
     };
     let mut body = String::new();
-    let jobs = store.jobs(row.id).await?;
-    let mut counts: BTreeMap<String, usize> = BTreeMap::new();
-    for job in &jobs {
-        *counts.entry(job.state.to_string()).or_default() += 1;
-    }
+    // Counted by SQLite (`jobs_by_state`), in the states' names' order.
+    let counts: BTreeMap<String, usize> = store
+        .job_counts(row.id)
+        .await?
+        .into_iter()
+        .map(|(state, n)| (state.to_string(), n))
+        .collect();
+    let n_jobs: usize = counts.values().sum();
     let counts: Vec<String> = counts.iter().map(|(s, n)| format!("{n} {s}")).collect();
     let _ = write!(
         body,
@@ -73,7 +76,7 @@ pub async fn render(
         escape(&row.name),
         escape(&row.solver),
         escape(row.state.as_str()),
-        jobs.len(),
+        n_jobs,
         counts.join(", "),
         escape(&row.file_path),
         env!("CARGO_PKG_VERSION")

@@ -830,7 +830,8 @@ async fn conclude(store: &Store, row: &StudyRow, study: &Study) {
     let recommendation = async {
         let rounds = store.rounds(row.id).await?;
         let factors = store.factors(row.id).await?;
-        let runs = crate::surfaces::design_runs(store, row.id).await?;
+        let fitted = crate::surfaces::fitted_names(&rounds);
+        let runs = crate::surfaces::design_runs_named(store, row.id, &fitted).await?;
         anyhow::Ok(status::recommendation(study, &rounds, &factors, &runs))
     };
     match recommendation.await {
@@ -893,10 +894,12 @@ async fn drive_rounds(
         match rounds::advance(store, study_id, study, runs_dir).await? {
             rounds::Advance::NextRound(next) => {
                 errln!("orch: round {} analysed; round {next} starts", next - 1);
+                let rounds = store.rounds(study_id).await?;
+                let fitted = crate::surfaces::fitted_names(&rounds);
                 for line in status::rounds_summary(
-                    &store.rounds(study_id).await?,
+                    &rounds,
                     &store.factors(study_id).await?,
-                    &crate::surfaces::design_runs(store, study_id).await?,
+                    &crate::surfaces::design_runs_named(store, study_id, &fitted).await?,
                 )
                 .lines()
                 {
@@ -946,9 +949,25 @@ async fn show_status(
                 .await?
                 .map(|s| s.shown_responses())
                 .unwrap_or_default();
-            let detail = StudyDetail::load(&store, row).await?;
+            let detail = if as_json {
+                StudyDetail::load(&store, row).await?
+            } else {
+                StudyDetail::load_shown(&store, row, &responses).await?
+            };
             if as_json {
-                outln!("{}", serde_json::to_string_pretty(&detail.json(&project))?)?;
+                // Written as it is made: a study's JSON grows with its jobs.
+                use std::io::Write;
+                let mut stdout = std::io::BufWriter::new(std::io::stdout().lock());
+                let written = detail
+                    .write_json(&project, &mut stdout)
+                    .map_err(std::io::Error::from)
+                    .and_then(|()| stdout.write_all(b"\n"))
+                    .and_then(|()| stdout.flush());
+                match written {
+                    // The reader has gone (`| head`): nobody wants the rest.
+                    Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => {}
+                    other => other?,
+                }
             } else {
                 out!("{}", detail.table(&responses))?;
             }
@@ -1129,7 +1148,11 @@ async fn show_fits(
         .into_iter()
         .map(|f| f.name)
         .collect();
-    let runs = crate::surfaces::design_runs(&store, row.id).await?;
+    // The report judges each fit from its own response's runs: only those are read.
+    let mut fitted: Vec<String> = chosen.fits.iter().map(|f| f.response.clone()).collect();
+    fitted.sort();
+    fitted.dedup();
+    let runs = crate::surfaces::design_runs_named(&store, row.id, &fitted).await?;
     let round_runs = runs.get(&chosen.round).map(Vec::as_slice).unwrap_or(&[]);
     out!("{}", status::fits_report(chosen, &names, round_runs))?;
     Ok(exit_codes::SUCCESS)
@@ -1170,18 +1193,26 @@ async fn export(
         }
         return Ok(exit_codes::SUCCESS);
     }
-    let table = crate::export::runs_table(&store, &row, study.as_ref()).await?;
-    let text = table.render(format);
+    // Written a row at a time, as the series are.
+    let study = study.as_ref();
     match output {
         Some(path) => {
-            write_output(path, text.as_bytes())?;
-            errln!(
-                "orch: {} rows written to {}",
-                table.rows.len(),
-                path.display()
-            );
+            let file = std::io::BufWriter::new(create_output(path)?);
+            let rows = crate::export::write_runs(&store, &row, study, format, file)
+                .await
+                .with_context(|| format!("cannot export to {}", path.display()))?;
+            errln!("orch: {rows} rows written to {}", path.display());
         }
-        None => out!("{text}")?,
+        None => {
+            let stdout = std::io::BufWriter::new(std::io::stdout().lock());
+            match crate::export::write_runs(&store, &row, study, format, stdout).await {
+                Err(crate::export::ExportError::Write(e))
+                    if e.kind() == std::io::ErrorKind::BrokenPipe => {}
+                other => {
+                    other?;
+                }
+            }
+        }
     }
     Ok(exit_codes::SUCCESS)
 }

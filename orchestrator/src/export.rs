@@ -12,7 +12,7 @@ use std::io::{self, Write};
 
 use serde_json::{Map, Value};
 
-use crate::store::{SeriesPages, Store, StoreError, StudyRow};
+use crate::store::{JobRow, PointRow, SeriesPages, Store, StoreError, StudyRow};
 use crate::study::Study;
 
 /// One cell of an exported table.
@@ -252,40 +252,150 @@ pub async fn runs_table(
     row: &StudyRow,
     study: Option<&Study>,
 ) -> Result<Table, StoreError> {
-    let factors = store.factors(row.id).await?;
-    let points: HashMap<i64, _> = store
-        .points(row.id)
-        .await?
-        .into_iter()
-        .map(|p| (p.id, p))
+    let runs = RunRows::read(store, row, study).await?;
+    Ok(Table {
+        rows: (0..runs.len()).map(|k| runs.row(k)).collect(),
+        headers: runs.headers,
+    })
+}
+
+/// Writes [`runs_table`] to `out` a row at a time, in the same text, without holding
+/// the table's rows or text. Returns the rows written.
+pub async fn write_runs(
+    store: &Store,
+    row: &StudyRow,
+    study: Option<&Study>,
+    format: Format,
+    out: impl Write,
+) -> Result<usize, ExportError> {
+    let runs = RunRows::read(store, row, study).await?;
+    let mut writer = TableWriter::new(out, format, runs.headers.clone())?;
+    for k in 0..runs.len() {
+        writer.row(&runs.row(k))?;
+    }
+    Ok(writer.finish()?)
+}
+
+/// What the rows of [`runs_table`] are made from, read from the store once (each
+/// table in one query); a row's cells are made when asked for, so a caller that
+/// writes or shows only some rows holds only those.
+pub struct RunRows {
+    /// The table's headers.
+    pub headers: Vec<String>,
+    points: HashMap<i64, PointRow>,
+    responses: BTreeMap<i64, BTreeMap<String, f64>>,
+    names: Vec<String>,
+    jobs: Vec<JobRow>,
+}
+
+impl RunRows {
+    /// Reads the study's factors, points, responses and jobs.
+    pub async fn read(
+        store: &Store,
+        row: &StudyRow,
+        study: Option<&Study>,
+    ) -> Result<RunRows, StoreError> {
+        let responses = store.responses(row.id).await?;
+        let jobs = store.jobs(row.id).await?;
+        RunRows::of(store, row, study, responses, jobs).await
+    }
+
+    /// The rows of the jobs at the positions (in id order, ascending) that `choose`
+    /// picks from the number of jobs, with the headers of every row, and that
+    /// number: only the chosen jobs' responses are read and kept.
+    pub async fn read_chosen(
+        store: &Store,
+        row: &StudyRow,
+        study: Option<&Study>,
+        choose: impl FnOnce(usize) -> Vec<usize>,
+    ) -> Result<(RunRows, usize), StoreError> {
+        let all = store.jobs(row.id).await?;
+        let total = all.len();
+        let chosen: std::collections::HashSet<usize> = choose(total).into_iter().collect();
+        let jobs: Vec<JobRow> = all
+            .into_iter()
+            .enumerate()
+            .filter(|(k, _)| chosen.contains(k))
+            .map(|(_, job)| job)
+            .collect();
+        let mut responses = BTreeMap::new();
+        for job in &jobs {
+            responses.insert(job.id, store.job_responses(job.id).await?);
+        }
+        let mut runs = RunRows::of(store, row, study, responses, jobs).await?;
+        // The headers name every stored response, not only the chosen rows'.
+        let stored: BTreeSet<String> = store.response_names(row.id).await?.into_iter().collect();
+        let names = response_order(study, &stored);
+        runs.headers.truncate(runs.headers.len() - runs.names.len());
+        runs.headers.extend(
+            names
+                .iter()
+                .map(|n| header(n, unit_of(study, n).as_deref())),
+        );
+        runs.names = names;
+        Ok((runs, total))
+    }
+
+    async fn of(
+        store: &Store,
+        row: &StudyRow,
+        study: Option<&Study>,
+        responses: BTreeMap<i64, BTreeMap<String, f64>>,
+        jobs: Vec<JobRow>,
+    ) -> Result<RunRows, StoreError> {
+        let factors = store.factors(row.id).await?;
+        let points: HashMap<i64, _> = store
+            .points(row.id)
+            .await?
+            .into_iter()
+            .map(|p| (p.id, p))
+            .collect();
+        let stored: BTreeSet<String> = responses.values().flat_map(|r| r.keys().cloned()).collect();
+        let names = response_order(study, &stored);
+        let mut headers: Vec<String> = [
+            "job",
+            "stage",
+            "round",
+            "purpose",
+            "point",
+            "replicate",
+            "seed",
+            "state",
+        ]
+        .iter()
+        .map(|s| s.to_string())
         .collect();
-    let responses = store.responses(row.id).await?;
-    let stored: BTreeSet<String> = responses.values().flat_map(|r| r.keys().cloned()).collect();
-    let names = response_order(study, &stored);
-    let mut headers: Vec<String> = [
-        "job",
-        "stage",
-        "round",
-        "purpose",
-        "point",
-        "replicate",
-        "seed",
-        "state",
-    ]
-    .iter()
-    .map(|s| s.to_string())
-    .collect();
-    headers.extend(factors.iter().map(|f| header(&f.name, Some(&f.unit))));
-    headers.extend(
-        names
-            .iter()
-            .map(|n| header(n, unit_of(study, n).as_deref())),
-    );
-    let empty = BTreeMap::new();
-    let mut rows = Vec::new();
-    for job in store.jobs(row.id).await? {
-        let point = &points[&job.point_id];
-        let values = responses.get(&job.id).unwrap_or(&empty);
+        headers.extend(factors.iter().map(|f| header(&f.name, Some(&f.unit))));
+        headers.extend(
+            names
+                .iter()
+                .map(|n| header(n, unit_of(study, n).as_deref())),
+        );
+        Ok(RunRows {
+            headers,
+            points,
+            responses,
+            names,
+            jobs,
+        })
+    }
+
+    /// The number of rows: one per job.
+    pub fn len(&self) -> usize {
+        self.jobs.len()
+    }
+
+    /// True for a study without jobs.
+    pub fn is_empty(&self) -> bool {
+        self.jobs.is_empty()
+    }
+
+    /// Row `k` (the `k`-th job in id order), as long as the headers.
+    pub fn row(&self, k: usize) -> Vec<Cell> {
+        let job = &self.jobs[k];
+        let point = &self.points[&job.point_id];
+        let empty = BTreeMap::new();
+        let values = self.responses.get(&job.id).unwrap_or(&empty);
         let mut cells = vec![
             Cell::Text(job.name.clone()),
             Cell::Text(job.stage.clone()),
@@ -298,13 +408,12 @@ pub async fn runs_table(
         ];
         cells.extend(point.natural.iter().map(|v| Cell::Real(*v)));
         cells.extend(
-            names
+            self.names
                 .iter()
                 .map(|n| values.get(n).map(|v| Cell::Real(*v)).unwrap_or(Cell::Empty)),
         );
-        rows.push(cells);
+        cells
     }
-    Ok(Table { headers, rows })
 }
 
 /// Why `orch export` could not write its table.

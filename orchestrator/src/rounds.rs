@@ -64,19 +64,7 @@ pub async fn advance(
     if store.round_decided(study_id, round).await? {
         return Ok(Advance::Done("every round is analysed".into()));
     }
-    let round_points: std::collections::HashSet<i64> = store
-        .points(study_id)
-        .await?
-        .into_iter()
-        .filter(|p| p.round == round)
-        .map(|p| p.id)
-        .collect();
-    if store
-        .jobs(study_id)
-        .await?
-        .iter()
-        .any(|j| round_points.contains(&j.point_id) && !j.state().is_final())
-    {
+    if store.round_has_unfinished_jobs(study_id, round).await? {
         return Ok(Advance::Done(format!(
             "round {round} still has unfinished jobs"
         )));
@@ -107,21 +95,20 @@ async fn observed(
     round: i64,
     responses: &[String],
 ) -> Result<HashMap<String, Observed>, StoreError> {
-    let design_runs = surfaces::design_runs(store, study_id)
+    // Each of the study's tables is read once; the design runs are made from them.
+    let points = store.points(study_id).await?;
+    let values = store.responses_named(study_id, responses).await?;
+    let jobs = store.jobs(study_id).await?;
+    let design_runs = surfaces::design_runs_from(store, study_id, &points, &jobs, &values)
         .await?
         .remove(&round)
         .unwrap_or_default();
-    let test_points: HashMap<i64, Vec<f64>> = store
-        .points(study_id)
-        .await?
+    let test_points: HashMap<i64, Vec<f64>> = points
         .into_iter()
         .filter(|p| p.round == round && p.purpose == "test")
         .map(|p| (p.id, p.coded))
         .collect();
-    let values = store.responses(study_id).await?;
-    let test_jobs: Vec<_> = store
-        .jobs(study_id)
-        .await?
+    let test_jobs: Vec<_> = jobs
         .into_iter()
         .filter(|j| test_points.contains_key(&j.point_id) && j.state() == JobState::Succeeded)
         .collect();

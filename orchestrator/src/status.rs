@@ -96,17 +96,46 @@ pub struct JobDetail {
 impl StudyDetail {
     /// Reads a study's detail from the store.
     pub async fn load(store: &Store, study: StudyRow) -> Result<StudyDetail, StoreError> {
-        let factors = store.factors(study.id).await?;
-        let points: BTreeMap<i64, _> = store
-            .points(study.id)
+        StudyDetail::load_with(store, study, None).await
+    }
+
+    /// [`StudyDetail::load`] for [`StudyDetail::table`] showing `shown`: of the
+    /// responses only those and the ones the rounds fitted are read (the jobs'
+    /// `responses` hold just those).
+    pub async fn load_shown(
+        store: &Store,
+        study: StudyRow,
+        shown: &[String],
+    ) -> Result<StudyDetail, StoreError> {
+        let mut names: Vec<String> = store
+            .rounds(study.id)
             .await?
-            .into_iter()
-            .map(|p| (p.id, p))
+            .iter()
+            .flat_map(|r| r.fits.iter().map(|f| f.response.clone()))
+            .chain(shown.iter().cloned())
             .collect();
-        let mut responses = store.responses(study.id).await?;
-        let jobs = store
-            .jobs(study.id)
-            .await?
+        names.sort();
+        names.dedup();
+        StudyDetail::load_with(store, study, Some(&names)).await
+    }
+
+    async fn load_with(
+        store: &Store,
+        study: StudyRow,
+        names: Option<&[String]>,
+    ) -> Result<StudyDetail, StoreError> {
+        let factors = store.factors(study.id).await?;
+        // The points, responses and jobs are read once: the design runs are made from
+        // the same rows.
+        let points = store.points(study.id).await?;
+        let mut responses = match names {
+            Some(names) => store.responses_named(study.id, names).await?,
+            None => store.responses(study.id).await?,
+        };
+        let jobs = store.jobs(study.id).await?;
+        let runs = surfaces::design_runs_from(store, study.id, &points, &jobs, &responses).await?;
+        let points: BTreeMap<i64, _> = points.into_iter().map(|p| (p.id, p)).collect();
+        let jobs = jobs
             .into_iter()
             .map(|job| {
                 let point = &points[&job.point_id];
@@ -120,7 +149,6 @@ impl StudyDetail {
             })
             .collect();
         let rounds = store.rounds(study.id).await?;
-        let runs = surfaces::design_runs(store, study.id).await?;
         let noise = crate::noise::summary(store, &study.name).await?;
         Ok(StudyDetail {
             noise,
@@ -135,8 +163,11 @@ impl StudyDetail {
 
     /// Jobs per state.
     pub fn counts(&self) -> BTreeMap<JobState, usize> {
-        let rows: Vec<JobRow> = self.jobs.iter().map(|j| j.job.clone()).collect();
-        crate::driver::counts(&rows)
+        let mut counts = BTreeMap::new();
+        for detail in &self.jobs {
+            *counts.entry(detail.job.state()).or_insert(0) += 1;
+        }
+        counts
     }
 
     /// The per-job table, showing `responses` (the study's
@@ -215,53 +246,142 @@ impl StudyDetail {
 
     /// The machine-readable form.
     pub fn json(&self, project_dir: &Path) -> Value {
+        let names = self.factor_names();
+        json!({
+            "schema": JSON_SCHEMA,
+            "study": self.study_json(project_dir),
+            "rounds": self.rounds_json(&names),
+            "noise_design": self.noise_json(),
+            "factors": self.factors_json(),
+            "jobs": self.jobs.iter().map(|d| job_json(d, &names)).collect::<Vec<_>>(),
+        })
+    }
+
+    /// Writes [`StudyDetail::json`] to `out` as `serde_json::to_writer_pretty` writes
+    /// it, without building it: each job's object is made as it is written, so what is
+    /// held does not grow with the jobs' text.
+    pub fn write_json(
+        &self,
+        project_dir: &Path,
+        out: impl std::io::Write,
+    ) -> serde_json::Result<()> {
+        serde_json::to_writer_pretty(
+            out,
+            &JsonOf {
+                detail: self,
+                project_dir,
+            },
+        )
+    }
+
+    fn factor_names(&self) -> Vec<&str> {
+        self.factors.iter().map(|f| f.name.as_str()).collect()
+    }
+
+    fn study_json(&self, project_dir: &Path) -> Value {
         let counts: BTreeMap<&str, usize> = self
             .counts()
             .iter()
             .map(|(s, n)| (s.as_str(), *n))
             .collect();
-        let names: Vec<&str> = self.factors.iter().map(|f| f.name.as_str()).collect();
-        let by_factor = |values: &[f64]| by_factor(&names, values);
         json!({
-            "schema": JSON_SCHEMA,
-            "study": {
-                "name": self.study.name,
-                "solver": self.study.solver,
-                "state": self.study.state.as_str(),
-                "driver": {"pid": self.driver.pid, "alive": self.driver.alive},
-                "note": self.driver.note(&self.study.name, self.study.state),
-                "file": self.study.file_path,
-                "project_dir": project_dir.display().to_string(),
-                "counts": counts,
-            },
-            "rounds": self.rounds.iter().map(|r| round_json(r, &names)).collect::<Vec<_>>(),
-            "noise_design": self.noise.as_ref().map(|n| {
-                let names: Vec<&str> = n.factors.iter().map(String::as_str).collect();
-                json!({"study": n.study, "round": round_json(&n.round, &names)})
-            }),
-            "factors": self.factors.iter().map(|f| json!({
-                "name": f.name, "min": f.min, "max": f.max, "unit": f.unit,
-            })).collect::<Vec<_>>(),
-            "jobs": self.jobs.iter().map(|d| json!({
-                "name": d.job.name,
-                "id": d.job.id,
-                "state": d.job.state.as_str(),
-                "attempts": d.job.attempts,
-                "handle": d.job.executor_handle,
-                "scheduler_state": d.job.scheduler_state,
-                "run_dir": d.job.run_dir,
-                "point": d.point,
-                "replicate": d.job.replicate,
-                "seed": d.job.seed,
-                "coded": by_factor(&d.coded),
-                "factors": by_factor(&d.natural),
-                "responses": d.responses,
-                "exit_code": d.job.exit_code,
-                "error": d.job.error,
-                "started_at": d.job.started_at,
-                "finished_at": d.job.finished_at,
-            })).collect::<Vec<_>>(),
+            "name": self.study.name,
+            "solver": self.study.solver,
+            "state": self.study.state.as_str(),
+            "driver": {"pid": self.driver.pid, "alive": self.driver.alive},
+            "note": self.driver.note(&self.study.name, self.study.state),
+            "file": self.study.file_path,
+            "project_dir": project_dir.display().to_string(),
+            "counts": counts,
         })
+    }
+
+    fn rounds_json(&self, names: &[&str]) -> Value {
+        Value::Array(self.rounds.iter().map(|r| round_json(r, names)).collect())
+    }
+
+    fn noise_json(&self) -> Value {
+        json!(self.noise.as_ref().map(|n| {
+            let names: Vec<&str> = n.factors.iter().map(String::as_str).collect();
+            json!({"study": n.study, "round": round_json(&n.round, &names)})
+        }))
+    }
+
+    fn factors_json(&self) -> Value {
+        Value::Array(
+            self.factors
+                .iter()
+                .map(|f| {
+                    json!({
+                        "name": f.name, "min": f.min, "max": f.max, "unit": f.unit,
+                    })
+                })
+                .collect(),
+        )
+    }
+}
+
+/// One job of `orch status --json`.
+fn job_json(d: &JobDetail, names: &[&str]) -> Value {
+    json!({
+        "name": d.job.name,
+        "id": d.job.id,
+        "state": d.job.state.as_str(),
+        "attempts": d.job.attempts,
+        "handle": d.job.executor_handle,
+        "scheduler_state": d.job.scheduler_state,
+        "run_dir": d.job.run_dir,
+        "point": d.point,
+        "replicate": d.job.replicate,
+        "seed": d.job.seed,
+        "coded": by_factor(names, &d.coded),
+        "factors": by_factor(names, &d.natural),
+        "responses": d.responses,
+        "exit_code": d.job.exit_code,
+        "error": d.job.error,
+        "started_at": d.job.started_at,
+        "finished_at": d.job.finished_at,
+    })
+}
+
+/// [`StudyDetail::json`] as something serde writes, its jobs one at a time.
+struct JsonOf<'a> {
+    detail: &'a StudyDetail,
+    project_dir: &'a Path,
+}
+
+impl serde::Serialize for JsonOf<'_> {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeMap;
+        let detail = self.detail;
+        let names = detail.factor_names();
+        // The keys in the order serde_json's object (a sorted map) writes them.
+        let mut map = serializer.serialize_map(Some(6))?;
+        map.serialize_entry("factors", &detail.factors_json())?;
+        map.serialize_entry(
+            "jobs",
+            &Jobs {
+                detail,
+                names: &names,
+            },
+        )?;
+        map.serialize_entry("noise_design", &detail.noise_json())?;
+        map.serialize_entry("rounds", &detail.rounds_json(&names))?;
+        map.serialize_entry("schema", &JSON_SCHEMA)?;
+        map.serialize_entry("study", &detail.study_json(self.project_dir))?;
+        map.end()
+    }
+}
+
+/// The `jobs` array of [`JsonOf`].
+struct Jobs<'a> {
+    detail: &'a StudyDetail,
+    names: &'a [&'a str],
+}
+
+impl serde::Serialize for Jobs<'_> {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        serializer.collect_seq(self.detail.jobs.iter().map(|d| job_json(d, self.names)))
     }
 }
 
@@ -1072,5 +1192,86 @@ mod tests {
             json!([])
         );
         assert_eq!(front_lines(&StoredRound::default(), &[]), "");
+    }
+
+    /// A detail of `n_jobs` jobs, one failed with an error and one without responses.
+    fn detail(n_jobs: i64) -> StudyDetail {
+        let study = StudyRow {
+            id: 1,
+            name: "s".into(),
+            solver: "native".into(),
+            file_path: "s.yaml".into(),
+            file_text: String::new(),
+            file_sha256: String::new(),
+            template_name: String::new(),
+            template_text: String::new(),
+            state: StudyState::Finished,
+            driver_pid: None,
+            driver_started: None,
+            created_at: 0.0,
+            updated_at: 0.0,
+        };
+        let job = |id: i64| JobDetail {
+            job: JobRow {
+                id,
+                study_id: 1,
+                point_id: id,
+                replicate: 0,
+                name: format!("p{id:03}r0"),
+                seed: id,
+                state: if id == 2 {
+                    JobState::Failed
+                } else {
+                    JobState::Succeeded
+                },
+                attempts: 1,
+                executor_handle: Some(format!("{id}:1")),
+                run_dir: format!("runs/s/p{id:03}r0"),
+                started_at: Some(1.5),
+                finished_at: Some(2.25),
+                exit_code: Some(i64::from(id == 2)),
+                error: (id == 2).then(|| "exit \"1\"\nsee log".into()),
+                scheduler_state: None,
+                stage: "dem".into(),
+                after_job_id: None,
+            },
+            point: id,
+            coded: vec![-1.0 + 0.5 * id as f64],
+            natural: vec![0.02 + 1e-3 * id as f64],
+            responses: if id == 2 {
+                BTreeMap::new()
+            } else {
+                [("exit_speed".to_string(), 0.1 * id as f64)].into()
+            },
+        };
+        StudyDetail {
+            study,
+            driver: Driver {
+                pid: None,
+                alive: false,
+            },
+            factors: vec![FactorRow {
+                name: "outlet_diameter".into(),
+                min: 0.02,
+                max: 0.028,
+                unit: "m".into(),
+            }],
+            jobs: (1..=n_jobs).map(job).collect(),
+            rounds: vec![StoredRound::default()],
+            runs: BTreeMap::new(),
+            noise: None,
+        }
+    }
+
+    #[test]
+    fn the_json_written_a_job_at_a_time_is_the_pretty_json_of_the_whole() {
+        for n_jobs in [0, 1, 3] {
+            let detail = detail(n_jobs);
+            let project = Path::new("/p/.orch");
+            let mut written = Vec::new();
+            detail.write_json(project, &mut written).unwrap();
+            let whole = serde_json::to_string_pretty(&detail.json(project)).unwrap();
+            assert_eq!(String::from_utf8(written).unwrap(), whole, "{n_jobs} jobs");
+        }
     }
 }

@@ -12,7 +12,7 @@ use orch_metamodel::surrogate::{ModelSpec, Surrogate};
 use orch_metamodel::{Basis, BasisKind, FactorRange};
 use serde_json::json;
 
-use crate::store::{JobState, Sensitivity, Store, StoreError, StoredFit};
+use crate::store::{JobRow, JobState, PointRow, Sensitivity, Store, StoreError, StoredFit};
 
 /// One succeeded job on a design point (not a held-out test point).
 #[derive(Debug, Clone, PartialEq)]
@@ -47,7 +47,48 @@ pub async fn design_runs(
     store: &Store,
     study_id: i64,
 ) -> Result<BTreeMap<i64, Vec<Run>>, StoreError> {
-    let own = own_design_runs(store, study_id).await?;
+    let points = store.points(study_id).await?;
+    let responses = store.responses(study_id).await?;
+    let jobs = store.jobs(study_id).await?;
+    design_runs_from(store, study_id, &points, &jobs, &responses).await
+}
+
+/// The responses `rounds` fitted, each once, in name order: what their surfaces,
+/// verdicts and warnings are judged from.
+pub fn fitted_names(rounds: &[crate::store::StoredRound]) -> Vec<String> {
+    let mut names: Vec<String> = rounds
+        .iter()
+        .flat_map(|r| r.fits.iter().map(|f| f.response.clone()))
+        .collect();
+    names.sort();
+    names.dedup();
+    names
+}
+
+/// [`design_runs`] with only the responses `names` (distinct) read and kept: what a
+/// command that judges or refits some responses' surfaces needs.
+pub async fn design_runs_named(
+    store: &Store,
+    study_id: i64,
+    names: &[String],
+) -> Result<BTreeMap<i64, Vec<Run>>, StoreError> {
+    let points = store.points(study_id).await?;
+    let responses = store.responses_named(study_id, names).await?;
+    let jobs = store.jobs(study_id).await?;
+    design_runs_from(store, study_id, &points, &jobs, &responses).await
+}
+
+/// [`design_runs`] from the study's points, jobs and responses (by job id) that the
+/// caller has already read, so that a command reads each of them once; only the
+/// rounds' boxes are read here.
+pub async fn design_runs_from(
+    store: &Store,
+    study_id: i64,
+    points: &[PointRow],
+    jobs: &[JobRow],
+    responses: &BTreeMap<i64, BTreeMap<String, f64>>,
+) -> Result<BTreeMap<i64, Vec<Run>>, StoreError> {
+    let own = own_design_runs(points, jobs, responses);
     let mut out = BTreeMap::new();
     for &round in own.keys() {
         let ranges = store.round_ranges(study_id, round).await?;
@@ -88,23 +129,20 @@ pub fn runs_inside(own: &BTreeMap<i64, Vec<Run>>, round: i64, ranges: &[FactorRa
 }
 
 /// Succeeded runs on design points (not held-out test points), by the round that ran
-/// them.
-async fn own_design_runs(
-    store: &Store,
-    study_id: i64,
-) -> Result<BTreeMap<i64, Vec<Run>>, StoreError> {
-    let points: HashMap<i64, _> = store
-        .points(study_id)
-        .await?
-        .into_iter()
+/// them, in job order.
+fn own_design_runs(
+    points: &[PointRow],
+    jobs: &[JobRow],
+    responses: &BTreeMap<i64, BTreeMap<String, f64>>,
+) -> BTreeMap<i64, Vec<Run>> {
+    let points: HashMap<i64, &PointRow> = points
+        .iter()
         .filter(|p| p.purpose == "design")
         .map(|p| (p.id, p))
         .collect();
-    let mut responses = store.responses(study_id).await?;
     let mut out: BTreeMap<i64, Vec<Run>> = BTreeMap::new();
-    let jobs = store.jobs(study_id).await?;
     // A coupled chain's later DEM and CFD runs replace its earlier ones.
-    let superseded = crate::coupling::superseded(&jobs);
+    let superseded = crate::coupling::superseded(jobs);
     for job in jobs {
         let Some(point) = points.get(&job.point_id) else {
             continue;
@@ -113,13 +151,13 @@ async fn own_design_runs(
             continue;
         }
         out.entry(point.round).or_default().push(Run {
-            responses: responses.remove(&job.id).unwrap_or_default(),
-            job: job.name,
+            responses: responses.get(&job.id).cloned().unwrap_or_default(),
+            job: job.name.clone(),
             coded: point.coded.clone(),
             natural: point.natural.clone(),
         });
     }
-    Ok(out)
+    out
 }
 
 /// The runs of `runs` that have `response`, as the round's analysis saw them.

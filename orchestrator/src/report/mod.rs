@@ -7,10 +7,13 @@
 //! predictions, the Pareto chart of standardised effects, a multi-objective round's
 //! Pareto front (a chart in objective space for two objectives, and a table), the
 //! optimum (or compromise point), and the Monte Carlo summary. Per run: the response values and every stored series.
+//! A study with more runs than a chart can draw or a page can list shows an even choice
+//! of them ([`shown`]) and says so.
 //! The surfaces are refitted from the stored runs ([`crate::surfaces`]).
 
 pub mod html;
 pub mod plots;
+pub mod shown;
 
 use std::collections::{BTreeMap, HashMap};
 use std::fmt::Write;
@@ -47,20 +50,25 @@ pub async fn render(
     study: Option<&Study>,
 ) -> Result<String, StoreError> {
     let factors = store.factors(row.id).await?;
+    let rounds = store.rounds(row.id).await?;
     let data = Data {
         row,
         study,
         names: factors.iter().map(|f| f.name.clone()).collect(),
         factors,
-        rounds: store.rounds(row.id).await?,
-        runs: surfaces::design_runs(store, row.id).await?,
+        // The figures and warnings judge each fit from its own response's runs.
+        runs: surfaces::design_runs_named(store, row.id, &surfaces::fitted_names(&rounds)).await?,
+        rounds,
     };
     let mut body = String::new();
-    let jobs = store.jobs(row.id).await?;
-    let mut counts: BTreeMap<String, usize> = BTreeMap::new();
-    for job in &jobs {
-        *counts.entry(job.state.to_string()).or_default() += 1;
-    }
+    // Counted by SQLite (`jobs_by_state`), in the states' names' order.
+    let counts: BTreeMap<String, usize> = store
+        .job_counts(row.id)
+        .await?
+        .into_iter()
+        .map(|(state, n)| (state.to_string(), n))
+        .collect();
+    let n_jobs: usize = counts.values().sum();
     let counts: Vec<String> = counts.iter().map(|(s, n)| format!("{n} {s}")).collect();
     let _ = write!(
         body,
@@ -68,7 +76,7 @@ pub async fn render(
         escape(&row.name),
         escape(&row.solver),
         escape(row.state.as_str()),
-        jobs.len(),
+        n_jobs,
         counts.join(", "),
         escape(&row.file_path),
         env!("CARGO_PKG_VERSION")
@@ -214,23 +222,36 @@ async fn design_table(store: &Store, data: &Data<'_>, round: i64) -> Result<Stri
             .iter()
             .map(|f| crate::export::header(&f.name, Some(&f.unit))),
     );
-    let mut rows = Vec::new();
-    for job in store.jobs(data.row.id).await? {
-        let Some(point) = points.get(&job.point_id) else {
-            continue;
-        };
-        let mut row = vec![
-            escape(&job.name),
-            escape(&point.purpose),
-            point.idx.to_string(),
-            job.replicate.to_string(),
-            escape(job.state.as_str()),
-        ];
-        row.extend(point.natural.iter().map(|v| number(*v)));
-        rows.push(row);
-    }
+    let jobs: Vec<_> = store
+        .jobs(data.row.id)
+        .await?
+        .into_iter()
+        .filter(|job| points.contains_key(&job.point_id))
+        .collect();
+    let shown = shown::evenly(jobs.len(), shown::MAX_TABLE_RUNS);
+    let rows: Vec<Vec<String>> = shown
+        .iter()
+        .map(|&k| {
+            let job = &jobs[k];
+            let point = &points[&job.point_id];
+            let mut row = vec![
+                escape(&job.name),
+                escape(&point.purpose),
+                point.idx.to_string(),
+                job.replicate.to_string(),
+                escape(job.state.as_str()),
+            ];
+            row.extend(point.natural.iter().map(|v| number(*v)));
+            row
+        })
+        .collect();
+    let capped = if shown.len() < jobs.len() {
+        shown::note(shown.len(), jobs.len(), "orch export")
+    } else {
+        String::new()
+    };
     Ok(format!(
-        "<h3>Design of round {round}</h3>\n{}",
+        "<h3>Design of round {round}</h3>\n{}{capped}",
         table(&headers, &rows)
     ))
 }
@@ -777,12 +798,15 @@ fn decimate(points: &[(f64, f64)], max: usize) -> Vec<(f64, f64)> {
 
 async fn runs_section(store: &Store, data: &Data<'_>) -> Result<String, StoreError> {
     let mut out = String::from("<h2>Runs</h2>\n<h3>Response values of every run</h3>\n");
-    let table_of_runs = crate::export::runs_table(store, data.row, data.study).await?;
-    let rows: Vec<Vec<String>> = table_of_runs
-        .rows
-        .iter()
-        .map(|row| {
-            row.iter()
+    // At most MAX_TABLE_RUNS rows, only their responses read.
+    let (runs, total) = crate::export::RunRows::read_chosen(store, data.row, data.study, |n| {
+        shown::evenly(n, shown::MAX_TABLE_RUNS)
+    })
+    .await?;
+    let rows: Vec<Vec<String>> = (0..runs.len())
+        .map(|k| {
+            runs.row(k)
+                .iter()
                 .map(|cell| match cell {
                     crate::export::Cell::Text(s) => escape(s),
                     crate::export::Cell::Int(i) => i.to_string(),
@@ -792,40 +816,37 @@ async fn runs_section(store: &Store, data: &Data<'_>) -> Result<String, StoreErr
                 .collect()
         })
         .collect();
-    out.push_str(&table(&table_of_runs.headers, &rows));
-
-    // Read a page of jobs at a time, each job's series thinned to what is drawn as
-    // soon as it is whole: the points held are the points drawn, not every stored one.
-    let mut series: BTreeMap<String, BTreeMap<String, Vec<(f64, f64)>>> = BTreeMap::new();
-    let mut pages = crate::store::SeriesPages::of(data.row.id);
-    while let Some(page) = pages.next(store).await? {
-        let mut page = page.into_iter().peekable();
-        while let Some(first) = page.next() {
-            let mut points = vec![(first.x, first.value)];
-            while let Some(next) =
-                page.next_if(|p| p.job_id == first.job_id && p.series == first.series)
-            {
-                points.push((next.x, next.value));
-            }
-            series
-                .entry(first.series)
-                .or_default()
-                .insert(first.job, decimate(&points, MAX_LINE_POINTS));
-        }
+    out.push_str(&table(&runs.headers, &rows));
+    if runs.len() < total {
+        out.push_str(&shown::note(runs.len(), total, "orch export"));
     }
-    if series.is_empty() {
+    drop(runs);
+
+    // Which jobs stored each series comes from the index alone; only the lines drawn
+    // (at most MAX_SERIES_RUNS per series, each thinned to what is drawn) are read.
+    let by_series = store.series_jobs(data.row.id).await?;
+    if by_series.is_empty() {
         out.push_str("<p class=\"note\">No run stored a time series.</p>\n");
         return Ok(out);
     }
     let _ = writeln!(
         out,
         "<h3>Series of every run</h3>\n<p class=\"note\">{} series, each with one line per run.</p>",
-        series.len()
+        by_series.len()
     );
-    for (name, by_job) in series {
-        let name = &name;
+    for (name, jobs) in &by_series {
+        let shown = shown::evenly(jobs.len(), shown::MAX_SERIES_RUNS);
+        let mut by_job: BTreeMap<&str, Vec<(f64, f64)>> = BTreeMap::new();
+        for &k in &shown {
+            let (id, job) = &jobs[k];
+            let points = store.series(*id, name).await?;
+            by_job.insert(job, decimate(&points, MAX_LINE_POINTS));
+        }
         let unit = data.unit(name);
-        let lines: Vec<(String, Vec<(f64, f64)>)> = by_job.into_iter().collect();
+        let lines: Vec<(String, Vec<(f64, f64)>)> = by_job
+            .into_iter()
+            .map(|(job, points)| (job.to_string(), points))
+            .collect();
         let over = crate::export::abscissa_of(data.study, name);
         let svg = plots::lines(
             &format!("Series: {name}"),
@@ -840,6 +861,13 @@ async fn runs_section(store: &Store, data: &Data<'_>) -> Result<String, StoreErr
             &svg,
             &format!("{} over {}, one line per run.", escape(name), escape(&over)),
         ));
+        if shown.len() < jobs.len() {
+            out.push_str(&shown::note(
+                shown.len(),
+                jobs.len(),
+                "orch export --series",
+            ));
+        }
     }
     Ok(out)
 }

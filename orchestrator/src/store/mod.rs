@@ -405,13 +405,26 @@ impl Store {
         Ok(rows::parse_state("studies", study_id, state)?)
     }
 
-    /// Every job of a study, in point and replicate order.
+    /// Every job of a study, in point and replicate order; read [`ROWS_PER_PAGE`] at a
+    /// time (the index `jobs_by_study`).
     pub async fn jobs(&self, study_id: i64) -> Result<Vec<JobRow>, StoreError> {
-        sqlx::query_as("SELECT * FROM jobs WHERE study_id = ? ORDER BY id")
+        let mut jobs: Vec<JobRow> = Vec::new();
+        loop {
+            let page: Vec<JobRow> = sqlx::query_as(
+                "SELECT * FROM jobs WHERE study_id = ? AND id > ? ORDER BY id LIMIT ?",
+            )
             .bind(study_id)
+            .bind(jobs.last().map_or(i64::MIN, |j| j.id))
+            .bind(ROWS_PER_PAGE)
             .fetch_all(&self.pool)
             .await
-            .map_err(query_error("list jobs"))
+            .map_err(query_error("list jobs"))?;
+            let whole = page.len() < PAGE_LEN;
+            jobs.extend(page);
+            if whole {
+                return Ok(jobs);
+            }
+        }
     }
 
     /// A study's jobs that are submitted or running (to poll), in id order.
@@ -522,17 +535,36 @@ impl Store {
     }
 
     /// The design points of a study with their coded and natural values.
+    /// In round and index order, read [`ROWS_PER_PAGE`] points at a time.
     pub async fn points(&self, study_id: i64) -> Result<Vec<PointRow>, StoreError> {
-        let rows = sqlx::query(
-            "SELECT p.id, p.round, p.idx, v.coded, v.natural, p.purpose FROM points p
-             JOIN point_values v ON v.point_id = p.id
-             WHERE p.study_id = ? ORDER BY p.round, p.idx, v.factor_idx",
-        )
-        .bind(study_id)
-        .fetch_all(&self.pool)
-        .await
-        .map_err(query_error("list design points"))?;
-        Ok(collect_points(rows))
+        let mut points: Vec<PointRow> = Vec::new();
+        loop {
+            let (round, idx) = points
+                .last()
+                .map_or((i64::MIN, i64::MIN), |p| (p.round, p.idx));
+            let rows = sqlx::query(
+                "WITH page AS (
+                     SELECT id, round, idx, purpose FROM points
+                      WHERE study_id = ?1 AND (round, idx) > (?2, ?3)
+                      ORDER BY round, idx LIMIT ?4
+                 )
+                 SELECT p.id, p.round, p.idx, v.coded, v.natural, p.purpose FROM page p
+                 JOIN point_values v ON v.point_id = p.id ORDER BY p.round, p.idx, v.factor_idx",
+            )
+            .bind(study_id)
+            .bind(round)
+            .bind(idx)
+            .bind(ROWS_PER_PAGE)
+            .fetch_all(&self.pool)
+            .await
+            .map_err(query_error("list design points"))?;
+            let page = collect_points(rows);
+            let whole = page.len() < PAGE_LEN;
+            points.extend(page);
+            if whole {
+                return Ok(points);
+            }
+        }
     }
 
     /// The design points of `ids` (those that exist), in id order.
@@ -581,19 +613,81 @@ impl Store {
         &self,
         study_id: i64,
     ) -> Result<BTreeMap<i64, BTreeMap<String, f64>>, StoreError> {
-        let rows: Vec<(i64, String, f64)> = sqlx::query_as(
-            "SELECT r.job_id, r.name, r.value FROM responses r JOIN jobs j ON j.id = r.job_id
-             WHERE j.study_id = ? ORDER BY r.job_id, r.name",
+        // One row per job with a column per response name rather than one row per
+        // value: every row crosses from SQLite's thread with its own allocations, and
+        // a study has an order of magnitude more values than jobs.
+        let names = self.response_names(study_id).await?;
+        self.responses_by_job(study_id, &names, false).await
+    }
+
+    /// The names of the responses a study's jobs stored, in name order.
+    pub async fn response_names(&self, study_id: i64) -> Result<Vec<String>, StoreError> {
+        sqlx::query_scalar(
+            "SELECT DISTINCT r.name FROM responses r JOIN jobs j ON j.id = r.job_id
+             WHERE j.study_id = ? ORDER BY r.name",
         )
         .bind(study_id)
         .fetch_all(&self.pool)
         .await
-        .map_err(query_error("read responses"))?;
+        .map_err(query_error("list response names"))
+    }
+
+    /// The responses `names` (distinct) of every job of a study, by job id then name:
+    /// what [`Store::responses`] gives restricted to those names, for a command that
+    /// needs only some (`orch fit`, the round analysis, status's table); each value
+    /// is found through the primary key, so the cost grows with the jobs and names
+    /// asked for, not with every stored value.
+    pub async fn responses_named(
+        &self,
+        study_id: i64,
+        names: &[String],
+    ) -> Result<BTreeMap<i64, BTreeMap<String, f64>>, StoreError> {
+        self.responses_by_job(study_id, names, true).await
+    }
+
+    /// The values of `names` by job, through the primary key when `seek` (for a few
+    /// names), else from every response row (for all of them).
+    async fn responses_by_job(
+        &self,
+        study_id: i64,
+        names: &[String],
+        seek: bool,
+    ) -> Result<BTreeMap<i64, BTreeMap<String, f64>>, StoreError> {
         let mut out: BTreeMap<i64, BTreeMap<String, f64>> = BTreeMap::new();
-        for (job, name, value) in rows {
-            out.entry(job).or_default().insert(name, value);
+        if names.is_empty() {
+            return Ok(out);
         }
-        Ok(out)
+        let sql = responses_by_job_sql(names.len(), seek);
+        let mut after = i64::MIN;
+        loop {
+            let mut query = sqlx::query(&sql)
+                .bind(study_id)
+                .bind(after)
+                .bind(ROWS_PER_PAGE);
+            for name in names {
+                query = query.bind(name);
+            }
+            let rows = query
+                .fetch_all(&self.pool)
+                .await
+                .map_err(query_error("read responses"))?;
+            let whole = rows.len() < PAGE_LEN;
+            for row in rows {
+                let values: BTreeMap<String, f64> = names
+                    .iter()
+                    .enumerate()
+                    .filter_map(|(k, name)| {
+                        let value: Option<f64> = row.get(k + 1);
+                        value.map(|v| (name.clone(), v))
+                    })
+                    .collect();
+                after = row.get(0);
+                out.insert(after, values);
+            }
+            if whole {
+                return Ok(out);
+            }
+        }
     }
 
     /// Responses of one job, by name.
@@ -1085,6 +1179,38 @@ async fn refuse_if_driven(
         }
         _ => Ok(()),
     }
+}
+
+/// Rows a read of a whole study's jobs, points or responses takes from SQLite per
+/// query: each page is handed over and dropped before the next, so what such a read
+/// holds beyond its result does not grow with the study.
+pub const ROWS_PER_PAGE: i64 = 1000;
+
+/// [`ROWS_PER_PAGE`] as a length: a shorter page is the last.
+const PAGE_LEN: usize = ROWS_PER_PAGE as usize;
+
+/// The query of [`Store::responses`] for `n_names` response names: the study `?1`,
+/// the last job id of the page before `?2`, the page's length `?3`, then the names
+/// (`?4` on). One row per job with responses, with its value of each name or NULL, in
+/// job id order (the index `jobs_by_study`). A job has at most one value per name
+/// (the primary key), so `MAX` returns it as stored. With `seek` only the names'
+/// rows are visited (`r.name IN …`, through the primary key); without, every response
+/// row of the job (cheaper when the names are all there are).
+fn responses_by_job_sql(n_names: usize, seek: bool) -> String {
+    let columns: Vec<String> = (0..n_names)
+        .map(|k| format!("MAX(CASE WHEN r.name = ?{} THEN r.value END)", k + 4))
+        .collect();
+    let names: Vec<String> = (0..n_names).map(|k| format!("?{}", k + 4)).collect();
+    let only = if seek {
+        format!(" AND r.name IN ({})", names.join(", "))
+    } else {
+        String::new()
+    };
+    format!(
+        "SELECT j.id, {} FROM jobs j JOIN responses r ON r.job_id = j.id{only}
+         WHERE j.study_id = ?1 AND j.id > ?2 GROUP BY j.id ORDER BY j.id LIMIT ?3",
+        columns.join(", "),
+    )
 }
 
 /// Design points from rows of `(id, round, idx, coded, natural, purpose)`, one row per

@@ -210,6 +210,28 @@ impl Store {
         Ok(n > 0)
     }
 
+    /// True when a job on a point of `round` is not final (pending, rendered,
+    /// submitted or running); read from the not-final jobs alone (`jobs_by_state`).
+    pub async fn round_has_unfinished_jobs(
+        &self,
+        study_id: i64,
+        round: i64,
+    ) -> Result<bool, StoreError> {
+        static SQL: std::sync::LazyLock<String> = std::sync::LazyLock::new(|| {
+            format!(
+                "SELECT EXISTS (SELECT 1 FROM jobs j JOIN points p ON p.id = j.point_id
+                  WHERE j.study_id = ? AND p.round = ? AND j.state IN ({}))",
+                super::rows::state_list(|s| !s.is_final())
+            )
+        });
+        sqlx::query_scalar(&SQL)
+            .bind(study_id)
+            .bind(round)
+            .fetch_one(&self.pool)
+            .await
+            .map_err(query_error("look for a round's unfinished jobs"))
+    }
+
     /// The box of `round`.
     pub async fn round_ranges(
         &self,

@@ -1,6 +1,8 @@
 //! Reading a whole study's time series, for `orch export --series` and reports: a page
 //! of jobs at a time, so that what is held in memory does not grow with the study.
 
+use std::collections::BTreeMap;
+
 use super::{query_error, Store, StoreError};
 
 /// One point of a stored series.
@@ -88,5 +90,29 @@ impl SeriesPages {
                 })
                 .collect(),
         ))
+    }
+}
+
+impl Store {
+    /// For each series name a study's jobs stored (in name order), those jobs' ids and
+    /// names in id order: what a report chooses the lines it draws from, read from
+    /// the index `series_by_job` without reading the series themselves.
+    pub async fn series_jobs(
+        &self,
+        study_id: i64,
+    ) -> Result<BTreeMap<String, Vec<(i64, String)>>, StoreError> {
+        let rows: Vec<(i64, String, String)> = sqlx::query_as(
+            "SELECT j.id, j.name, s.name FROM jobs j JOIN series s ON s.job_id = j.id
+             WHERE j.study_id = ? GROUP BY j.id, s.name ORDER BY j.id, s.name",
+        )
+        .bind(study_id)
+        .fetch_all(&self.pool)
+        .await
+        .map_err(query_error("list the jobs with series"))?;
+        let mut out: BTreeMap<String, Vec<(i64, String)>> = BTreeMap::new();
+        for (id, job, series) in rows {
+            out.entry(series).or_default().push((id, job));
+        }
+        Ok(out)
     }
 }

@@ -1149,9 +1149,7 @@ async fn show_fits(
         .map(|f| f.name)
         .collect();
     // The report judges each fit from its own response's runs: only those are read.
-    let mut fitted: Vec<String> = chosen.fits.iter().map(|f| f.response.clone()).collect();
-    fitted.sort();
-    fitted.dedup();
+    let fitted = crate::surfaces::fitted_names(std::slice::from_ref(chosen));
     let runs = crate::surfaces::design_runs_named(&store, row.id, &fitted).await?;
     let round_runs = runs.get(&chosen.round).map(Vec::as_slice).unwrap_or(&[]);
     out!("{}", status::fits_report(chosen, &names, round_runs))?;

@@ -107,28 +107,28 @@ impl StudyDetail {
         study: StudyRow,
         shown: &[String],
     ) -> Result<StudyDetail, StoreError> {
-        let mut names: Vec<String> = store
-            .rounds(study.id)
-            .await?
-            .iter()
-            .flat_map(|r| r.fits.iter().map(|f| f.response.clone()))
-            .chain(shown.iter().cloned())
-            .collect();
-        names.sort();
-        names.dedup();
-        StudyDetail::load_with(store, study, Some(&names)).await
+        StudyDetail::load_with(store, study, Some(shown)).await
     }
 
+    /// Every response when `shown` is `None`; otherwise `shown` and the fitted ones.
     async fn load_with(
         store: &Store,
         study: StudyRow,
-        names: Option<&[String]>,
+        shown: Option<&[String]>,
     ) -> Result<StudyDetail, StoreError> {
+        let rounds = store.rounds(study.id).await?;
+        let names = shown.map(|shown| {
+            let mut names = surfaces::fitted_names(&rounds);
+            names.extend(shown.iter().cloned());
+            names.sort();
+            names.dedup();
+            names
+        });
         let factors = store.factors(study.id).await?;
         // The points, responses and jobs are read once: the design runs are made from
         // the same rows.
         let points = store.points(study.id).await?;
-        let mut responses = match names {
+        let mut responses = match &names {
             Some(names) => store.responses_named(study.id, names).await?,
             None => store.responses(study.id).await?,
         };
@@ -148,7 +148,6 @@ impl StudyDetail {
                 }
             })
             .collect();
-        let rounds = store.rounds(study.id).await?;
         let noise = crate::noise::summary(store, &study.name).await?;
         Ok(StudyDetail {
             noise,

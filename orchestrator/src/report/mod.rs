@@ -245,11 +245,7 @@ async fn design_table(store: &Store, data: &Data<'_>, round: i64) -> Result<Stri
             row
         })
         .collect();
-    let capped = if shown.len() < jobs.len() {
-        shown::note(shown.len(), jobs.len(), "orch export")
-    } else {
-        String::new()
-    };
+    let capped = shown::note(shown.len(), jobs.len(), "orch export");
     Ok(format!(
         "<h3>Design of round {round}</h3>\n{}{capped}",
         table(&headers, &rows)
@@ -817,9 +813,7 @@ async fn runs_section(store: &Store, data: &Data<'_>) -> Result<String, StoreErr
         })
         .collect();
     out.push_str(&table(&runs.headers, &rows));
-    if runs.len() < total {
-        out.push_str(&shown::note(runs.len(), total, "orch export"));
-    }
+    out.push_str(&shown::note(runs.len(), total, "orch export"));
     drop(runs);
 
     // Which jobs stored each series comes from the index alone; only the lines drawn
@@ -861,13 +855,11 @@ async fn runs_section(store: &Store, data: &Data<'_>) -> Result<String, StoreErr
             &svg,
             &format!("{} over {}, one line per run.", escape(name), escape(&over)),
         ));
-        if shown.len() < jobs.len() {
-            out.push_str(&shown::note(
-                shown.len(),
-                jobs.len(),
-                "orch export --series",
-            ));
-        }
+        out.push_str(&shown::note(
+            shown.len(),
+            jobs.len(),
+            "orch export --series",
+        ));
     }
     Ok(out)
 }

@@ -28,8 +28,12 @@ pub fn evenly(total: usize, max: usize) -> Vec<usize> {
 }
 
 /// The note under a chart or table that shows `shown` of `total` runs, pointing to
-/// the command (`orch export`, `orch export --series`) that gives all.
+/// the command (`orch export`, `orch export --series`) that gives all; nothing when
+/// every run is shown.
 pub fn note(shown: usize, total: usize, command: &str) -> String {
+    if shown >= total {
+        return String::new();
+    }
     format!(
         "<p class=\"note\">Showing {shown} of {total} runs, spread evenly over the jobs in order (the first and the last included); <code>{command}</code> gives all.</p>\n"
     )
@@ -63,6 +67,12 @@ mod tests {
             let (low, high) = (gaps.iter().min().unwrap(), gaps.iter().max().unwrap());
             assert!(high - low <= 1, "{total} {max}: gaps {low}..{high}");
         }
+    }
+
+    #[test]
+    fn only_a_capped_chart_or_table_has_a_note() {
+        assert_eq!(note(100, 100, "orch export"), "");
+        assert!(note(100, 10_000, "orch export").contains("Showing 100 of 10000 runs"));
     }
 
     #[test]

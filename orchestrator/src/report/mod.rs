@@ -206,11 +206,15 @@ fn front_section(data: &Data<'_>, round: &StoredRound) -> String {
 }
 
 async fn design_table(store: &Store, data: &Data<'_>, round: i64) -> Result<String, StoreError> {
+    // Only the shown jobs and their points are read: a round of 10^4 jobs lists 500.
+    let total = store.round_job_count(data.row.id, round).await?;
+    let shown = shown::evenly(total, shown::MAX_TABLE_RUNS);
+    let jobs = store.round_jobs_at(data.row.id, round, &shown).await?;
+    let point_ids: Vec<i64> = jobs.iter().map(|job| job.point_id).collect();
     let points: HashMap<i64, _> = store
-        .points(data.row.id)
+        .points_by_id(&point_ids)
         .await?
         .into_iter()
-        .filter(|p| p.round == round)
         .map(|p| (p.id, p))
         .collect();
     let mut headers: Vec<String> = ["job", "purpose", "point", "replicate", "state"]
@@ -222,17 +226,9 @@ async fn design_table(store: &Store, data: &Data<'_>, round: i64) -> Result<Stri
             .iter()
             .map(|f| crate::export::header(&f.name, Some(&f.unit))),
     );
-    let jobs: Vec<_> = store
-        .jobs(data.row.id)
-        .await?
-        .into_iter()
-        .filter(|job| points.contains_key(&job.point_id))
-        .collect();
-    let shown = shown::evenly(jobs.len(), shown::MAX_TABLE_RUNS);
-    let rows: Vec<Vec<String>> = shown
+    let rows: Vec<Vec<String>> = jobs
         .iter()
-        .map(|&k| {
-            let job = &jobs[k];
+        .map(|job| {
             let point = &points[&job.point_id];
             let mut row = vec![
                 escape(&job.name),
@@ -245,7 +241,7 @@ async fn design_table(store: &Store, data: &Data<'_>, round: i64) -> Result<Stri
             row
         })
         .collect();
-    let capped = shown::note(shown.len(), jobs.len(), "orch export");
+    let capped = shown::note(jobs.len(), total, "orch export");
     Ok(format!(
         "<h3>Design of round {round}</h3>\n{}{capped}",
         table(&headers, &rows)
@@ -946,6 +942,49 @@ uncertainty:
             html.contains("<p>maximise discharge_rate: predicted"),
             "{html}"
         );
+    }
+
+    /// A round of more jobs than a table lists shows an even choice of them, the first
+    /// and the last included, and says how many it left out.
+    #[tokio::test]
+    async fn a_large_round_s_design_table_lists_an_even_choice_of_its_jobs() {
+        const MANY: &str = "\
+name: many
+solver: liggghts
+factors:
+  - {name: outlet_diameter, min: 0.020, max: 0.028, unit: m}
+design: {type: full_factorial, levels: 601}
+responses: [discharge_rate]
+objective: {response: discharge_rate, goal: maximise}
+";
+        let run = crate::rounds::testing::round_run(MANY, |coded, _| JobResults {
+            responses: vec![("discharge_rate".into(), coded[0])],
+            series: vec![],
+            note: None,
+        })
+        .await;
+        let (store, id) = (&run.store, run.id);
+        let row = store.study_by_name("many").await.unwrap().unwrap();
+        let factors = store.factors(id).await.unwrap();
+        let data = Data {
+            row: &row,
+            study: Some(&run.study),
+            names: factors.iter().map(|f| f.name.clone()).collect(),
+            factors,
+            rounds: Vec::new(),
+            runs: BTreeMap::new(),
+        };
+        let html = design_table(store, &data, 0).await.unwrap();
+        let jobs = store.jobs(id).await.unwrap();
+        assert!(jobs.len() > shown::MAX_TABLE_RUNS);
+        assert_eq!(html.matches("<tr>").count(), 1 + shown::MAX_TABLE_RUNS);
+        let note = format!("Showing 500 of {} runs", jobs.len());
+        assert!(html.contains(&note), "{html}");
+        let expected = shown::evenly(jobs.len(), shown::MAX_TABLE_RUNS);
+        for (k, job) in jobs.iter().enumerate() {
+            let listed = html.contains(&format!("<td>{}</td>", job.name));
+            assert_eq!(listed, expected.contains(&k), "{}", job.name);
+        }
     }
 
     /// Two objectives in two factors, one round.

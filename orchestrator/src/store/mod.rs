@@ -608,6 +608,48 @@ impl Store {
         Ok((round, jobs))
     }
 
+    /// How many jobs the study's round `round` has.
+    pub async fn round_job_count(&self, study_id: i64, round: i64) -> Result<usize, StoreError> {
+        let (n,): (i64,) = sqlx::query_as(
+            "SELECT COUNT(*) FROM jobs j JOIN points p ON p.id = j.point_id
+             WHERE j.study_id = ? AND p.round = ?",
+        )
+        .bind(study_id)
+        .bind(round)
+        .fetch_one(&self.pool)
+        .await
+        .map_err(query_error("count a round's jobs"))?;
+        Ok(usize::try_from(n).unwrap_or(0))
+    }
+
+    /// The jobs at `positions` (0-based) of round `round`'s jobs in id order, in id
+    /// order (positions past the end are left out): a page or table that shows a few
+    /// of a large round reads those, not the round.
+    pub async fn round_jobs_at(
+        &self,
+        study_id: i64,
+        round: i64,
+        positions: &[usize],
+    ) -> Result<Vec<JobRow>, StoreError> {
+        if positions.is_empty() {
+            return Ok(Vec::new());
+        }
+        let positions = serde_json::to_string(positions).expect("JSON of integers");
+        sqlx::query_as(
+            "SELECT * FROM (
+                 SELECT j.*, row_number() OVER (ORDER BY j.id) - 1 AS position
+                   FROM jobs j JOIN points p ON p.id = j.point_id
+                  WHERE j.study_id = ?1 AND p.round = ?2
+             ) WHERE position IN (SELECT value FROM json_each(?3)) ORDER BY id",
+        )
+        .bind(study_id)
+        .bind(round)
+        .bind(positions)
+        .fetch_all(&self.pool)
+        .await
+        .map_err(query_error("read some of a round's jobs"))
+    }
+
     /// Responses of every job of a study, by job id then name.
     pub async fn responses(
         &self,

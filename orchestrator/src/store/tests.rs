@@ -413,3 +413,19 @@ async fn points_are_read_by_id_and_the_latest_round_with_its_jobs() {
     let (round, jobs) = store.latest_round_jobs(id).await.unwrap();
     assert_eq!((round, jobs.len()), (0, 18));
 }
+
+/// The report's design table reads only the jobs it lists, by their place in the round.
+#[tokio::test]
+async fn a_round_is_counted_and_read_at_chosen_positions_in_id_order() {
+    let (_dir, store, id) = store_with_study().await;
+    let all = store.jobs(id).await.unwrap();
+    assert_eq!(store.round_job_count(id, 0).await.unwrap(), all.len());
+    assert_eq!(store.round_job_count(id, 1).await.unwrap(), 0);
+    let picked = store.round_jobs_at(id, 0, &[0, 5, 17, 99]).await.unwrap();
+    assert_eq!(
+        picked,
+        vec![all[0].clone(), all[5].clone(), all[17].clone()]
+    );
+    assert!(store.round_jobs_at(id, 0, &[]).await.unwrap().is_empty());
+    assert!(store.round_jobs_at(id, 1, &[0]).await.unwrap().is_empty());
+}

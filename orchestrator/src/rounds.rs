@@ -15,7 +15,8 @@ use orch_metamodel::surrogate::{choose, Choice, Surrogate};
 use orch_metamodel::{lack_of_fit, BasisKind, Goal, KrigingOptions, Nugget};
 
 use crate::store::{
-    CandidateScore, Decision, FitRecord, JobState, LackOfFitRow, RoundRecord, Store, StoreError,
+    CandidateScore, Decision, FitRecord, JobRow, JobState, LackOfFitRow, RoundRecord, Store,
+    StoreError,
 };
 use crate::study::{Objective, Study};
 use crate::surfaces;
@@ -95,38 +96,43 @@ async fn observed(
     round: i64,
     responses: &[String],
 ) -> Result<HashMap<String, Observed>, StoreError> {
-    // Each of the study's tables is read once; the design runs are made from them.
+    // Each of the study's tables is read once. The held-out test runs are taken out
+    // first; the design runs then take the rest over (not a copy of it).
     let points = store.points(study_id).await?;
     let values = store.responses_named(study_id, responses).await?;
     let jobs = store.jobs(study_id).await?;
-    let design_runs = surfaces::design_runs_from(store, study_id, &points, &jobs, &values)
-        .await?
-        .remove(&round)
-        .unwrap_or_default();
-    let test_points: HashMap<i64, Vec<f64>> = points
-        .into_iter()
+    let test_points: HashMap<i64, &[f64]> = points
+        .iter()
         .filter(|p| p.round == round && p.purpose == "test")
-        .map(|p| (p.id, p.coded))
+        .map(|p| (p.id, p.coded.as_slice()))
         .collect();
-    let test_jobs: Vec<_> = jobs
-        .into_iter()
+    let test_jobs: Vec<&JobRow> = jobs
+        .iter()
         .filter(|j| test_points.contains_key(&j.point_id) && j.state() == JobState::Succeeded)
         .collect();
-    let mut out = HashMap::new();
+    let mut tests: HashMap<&String, (Vec<Vec<f64>>, Vec<f64>)> = HashMap::new();
     for response in responses {
-        let design = surfaces::observed(&design_runs, response);
-        let mut test = (vec![], vec![]);
+        let test = tests.entry(response).or_default();
         for job in &test_jobs {
             if let Some(value) = values.get(&job.id).and_then(|v| v.get(response)) {
-                test.0.push(test_points[&job.point_id].clone());
+                test.0.push(test_points[&job.point_id].to_vec());
                 test.1.push(*value);
             }
         }
+    }
+    drop((test_points, test_jobs));
+    let design_runs = surfaces::design_runs_taking(store, study_id, points, jobs, values)
+        .await?
+        .remove(&round)
+        .unwrap_or_default();
+    let mut out = HashMap::new();
+    for response in responses {
+        let design = surfaces::observed(&design_runs, response);
         out.insert(
             response.clone(),
             Observed {
                 design: (design.coded, design.y),
-                test,
+                test: tests.remove(response).unwrap_or_default(),
             },
         );
     }

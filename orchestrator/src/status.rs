@@ -1067,7 +1067,7 @@ mod tests {
             job: format!("p{x}"),
             coded: vec![x],
             natural: vec![0.024 + 0.004 * x],
-            responses: BTreeMap::from([("rate".into(), rate), ("fraction".into(), 1.0)]),
+            responses: vec![("fraction".into(), 1.0), ("rate".into(), rate)],
         }
     }
 

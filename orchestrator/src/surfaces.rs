@@ -23,8 +23,19 @@ pub struct Run {
     pub coded: Vec<f64>,
     /// Natural factor values (SI units).
     pub natural: Vec<f64>,
-    /// Its responses by name.
-    pub responses: BTreeMap<String, f64>,
+    /// Its responses, by name in name order. A list, not a map: a map's first node
+    /// holds room for eleven entries, most of a run's memory when a study of 10^4 runs
+    /// keeps the one or two responses it fits.
+    pub responses: Vec<(String, f64)>,
+}
+
+impl Run {
+    /// The value of the response `name`, if this run has it.
+    pub fn response(&self, name: &str) -> Option<f64> {
+        self.responses
+            .iter()
+            .find_map(|(n, v)| (n == name).then_some(*v))
+    }
 }
 
 /// The observations of one response over a round's design runs.
@@ -50,7 +61,7 @@ pub async fn design_runs(
     let points = store.points(study_id).await?;
     let responses = store.responses(study_id).await?;
     let jobs = store.jobs(study_id).await?;
-    design_runs_from(store, study_id, &points, &jobs, &responses).await
+    design_runs_taking(store, study_id, points, jobs, responses).await
 }
 
 /// The responses `rounds` fitted, each once, in name order: what their surfaces,
@@ -75,7 +86,28 @@ pub async fn design_runs_named(
     let points = store.points(study_id).await?;
     let responses = store.responses_named(study_id, names).await?;
     let jobs = store.jobs(study_id).await?;
-    design_runs_from(store, study_id, &points, &jobs, &responses).await
+    design_runs_taking(store, study_id, points, jobs, responses).await
+}
+
+/// [`design_runs`] from the study's points, jobs and responses (by job id), which it
+/// takes over: each run takes its job's values instead of copying them, and what is
+/// left is dropped before the rounds' lists are made, so a large study is not held
+/// twice.
+pub async fn design_runs_taking(
+    store: &Store,
+    study_id: i64,
+    points: Vec<PointRow>,
+    jobs: Vec<JobRow>,
+    mut responses: BTreeMap<i64, BTreeMap<String, f64>>,
+) -> Result<BTreeMap<i64, Vec<Run>>, StoreError> {
+    let own = own_design_runs(&points, &jobs, |job_id| {
+        responses
+            .remove(&job_id)
+            .map(|values| values.into_iter().collect())
+            .unwrap_or_default()
+    });
+    drop((points, jobs, responses));
+    by_round(store, study_id, own).await
 }
 
 /// [`design_runs`] from the study's points, jobs and responses (by job id) that the
@@ -88,11 +120,32 @@ pub async fn design_runs_from(
     jobs: &[JobRow],
     responses: &BTreeMap<i64, BTreeMap<String, f64>>,
 ) -> Result<BTreeMap<i64, Vec<Run>>, StoreError> {
-    let own = own_design_runs(points, jobs, responses);
+    let own = own_design_runs(points, jobs, |job_id| {
+        responses
+            .get(&job_id)
+            .map(|values| values.iter().map(|(n, v)| (n.clone(), *v)).collect())
+            .unwrap_or_default()
+    });
+    by_round(store, study_id, own).await
+}
+
+/// Each round's runs from the runs each round ran itself (`own`): the round's box is
+/// read and [`runs_inside`] applied.
+async fn by_round(
+    store: &Store,
+    study_id: i64,
+    mut own: BTreeMap<i64, Vec<Run>>,
+) -> Result<BTreeMap<i64, Vec<Run>>, StoreError> {
+    let rounds: Vec<i64> = own.keys().copied().collect();
     let mut out = BTreeMap::new();
-    for &round in own.keys() {
+    // Latest round first: no later round still needs a round's own runs when its
+    // turn comes, so they move into its list instead of being copied.
+    for &round in rounds.iter().rev() {
         let ranges = store.round_ranges(study_id, round).await?;
-        out.insert(round, runs_inside(&own, round, &ranges));
+        let mine = own.remove(&round).unwrap_or_default();
+        let mut runs = runs_inside(&own, round, &ranges);
+        runs.extend(mine);
+        out.insert(round, runs);
     }
     Ok(out)
 }
@@ -129,11 +182,11 @@ pub fn runs_inside(own: &BTreeMap<i64, Vec<Run>>, round: i64, ranges: &[FactorRa
 }
 
 /// Succeeded runs on design points (not held-out test points), by the round that ran
-/// them, in job order.
+/// them, in job order; `responses_of` gives a job's responses in name order.
 fn own_design_runs(
     points: &[PointRow],
     jobs: &[JobRow],
-    responses: &BTreeMap<i64, BTreeMap<String, f64>>,
+    mut responses_of: impl FnMut(i64) -> Vec<(String, f64)>,
 ) -> BTreeMap<i64, Vec<Run>> {
     let points: HashMap<i64, &PointRow> = points
         .iter()
@@ -151,7 +204,7 @@ fn own_design_runs(
             continue;
         }
         out.entry(point.round).or_default().push(Run {
-            responses: responses.get(&job.id).cloned().unwrap_or_default(),
+            responses: responses_of(job.id),
             job: job.name.clone(),
             coded: point.coded.clone(),
             natural: point.natural.clone(),
@@ -164,11 +217,11 @@ fn own_design_runs(
 pub fn observed(runs: &[Run], response: &str) -> Observed {
     let mut observed = Observed::default();
     for run in runs {
-        if let Some(value) = run.responses.get(response) {
+        if let Some(value) = run.response(response) {
             observed.jobs.push(run.job.clone());
             observed.coded.push(run.coded.clone());
             observed.natural.push(run.natural.clone());
-            observed.y.push(*value);
+            observed.y.push(value);
         }
     }
     observed
@@ -310,7 +363,7 @@ mod tests {
             job: format!("j{}", coded[0]),
             natural: coded.clone(),
             coded,
-            responses: BTreeMap::from([("y".to_string(), value)]),
+            responses: vec![("y".to_string(), value)],
         }
     }
 
@@ -363,7 +416,7 @@ mod tests {
             job: job.into(),
             coded: vec![coded],
             natural: vec![natural],
-            responses: BTreeMap::new(),
+            responses: Vec::new(),
         };
         // Round 0 over [0, 10]; round 1 over [4, 8].
         let own = BTreeMap::from([

@@ -58,10 +58,8 @@ pub async fn design_runs(
     store: &Store,
     study_id: i64,
 ) -> Result<BTreeMap<i64, Vec<Run>>, StoreError> {
-    let points = store.points(study_id).await?;
-    let responses = store.responses(study_id).await?;
-    let jobs = store.jobs(study_id).await?;
-    design_runs_taking(store, study_id, points, jobs, responses).await
+    let names = store.response_names(study_id).await?;
+    design_runs_named(store, study_id, &names).await
 }
 
 /// The responses `rounds` fitted, each once, in name order: what their surfaces,

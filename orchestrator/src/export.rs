@@ -297,32 +297,26 @@ impl RunRows {
     ) -> Result<RunRows, StoreError> {
         let responses = store.responses(row.id).await?;
         let jobs = store.jobs(row.id).await?;
-        RunRows::of(store, row, study, responses, jobs).await
+        let points = store.points(row.id).await?;
+        RunRows::of(store, row, study, responses, jobs, points).await
     }
 
     /// The rows of the jobs at the positions (in id order, ascending) that `choose`
     /// picks from the number of jobs, with the headers of every row, and that
-    /// number: only the chosen jobs' responses are read and kept.
+    /// number: only the chosen jobs, their points and their responses are read.
     pub async fn read_chosen(
         store: &Store,
         row: &StudyRow,
         study: Option<&Study>,
         choose: impl FnOnce(usize) -> Vec<usize>,
     ) -> Result<(RunRows, usize), StoreError> {
-        let all = store.jobs(row.id).await?;
-        let total = all.len();
-        let chosen: std::collections::HashSet<usize> = choose(total).into_iter().collect();
-        let jobs: Vec<JobRow> = all
-            .into_iter()
-            .enumerate()
-            .filter(|(k, _)| chosen.contains(k))
-            .map(|(_, job)| job)
-            .collect();
-        let mut responses = BTreeMap::new();
-        for job in &jobs {
-            responses.insert(job.id, store.job_responses(job.id).await?);
-        }
-        let mut runs = RunRows::of(store, row, study, responses, jobs).await?;
+        let total: usize = store.job_counts(row.id).await?.values().sum();
+        let jobs = store.jobs_at(row.id, &choose(total)).await?;
+        let job_ids: Vec<i64> = jobs.iter().map(|job| job.id).collect();
+        let point_ids: Vec<i64> = jobs.iter().map(|job| job.point_id).collect();
+        let responses = store.responses_of_jobs(&job_ids).await?;
+        let points = store.points_by_id(&point_ids).await?;
+        let mut runs = RunRows::of(store, row, study, responses, jobs, points).await?;
         // The headers name every stored response, not only the chosen rows'.
         let stored: BTreeSet<String> = store.response_names(row.id).await?.into_iter().collect();
         let names = response_order(study, &stored);
@@ -342,14 +336,10 @@ impl RunRows {
         study: Option<&Study>,
         responses: BTreeMap<i64, BTreeMap<String, f64>>,
         jobs: Vec<JobRow>,
+        points: Vec<PointRow>,
     ) -> Result<RunRows, StoreError> {
         let factors = store.factors(row.id).await?;
-        let points: HashMap<i64, _> = store
-            .points(row.id)
-            .await?
-            .into_iter()
-            .map(|p| (p.id, p))
-            .collect();
+        let points: HashMap<i64, _> = points.into_iter().map(|p| (p.id, p)).collect();
         let stored: BTreeSet<String> = responses.values().flat_map(|r| r.keys().cloned()).collect();
         let names = response_order(study, &stored);
         let mut headers: Vec<String> = [

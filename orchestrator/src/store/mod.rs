@@ -631,6 +631,29 @@ impl Store {
         round: i64,
         positions: &[usize],
     ) -> Result<Vec<JobRow>, StoreError> {
+        self.jobs_at_positions(study_id, Some(round), positions)
+            .await
+    }
+
+    /// The jobs at `positions` (0-based) of the study's jobs in id order, in id order
+    /// (positions past the end are left out): [`Store::round_jobs_at`] over every
+    /// round, for a table that lists a few of a large study.
+    pub async fn jobs_at(
+        &self,
+        study_id: i64,
+        positions: &[usize],
+    ) -> Result<Vec<JobRow>, StoreError> {
+        self.jobs_at_positions(study_id, None, positions).await
+    }
+
+    /// The jobs at `positions` of the study's jobs in id order, of round `round` only
+    /// when given.
+    async fn jobs_at_positions(
+        &self,
+        study_id: i64,
+        round: Option<i64>,
+        positions: &[usize],
+    ) -> Result<Vec<JobRow>, StoreError> {
         if positions.is_empty() {
             return Ok(Vec::new());
         }
@@ -639,7 +662,7 @@ impl Store {
             "SELECT * FROM (
                  SELECT j.*, row_number() OVER (ORDER BY j.id) - 1 AS position
                    FROM jobs j JOIN points p ON p.id = j.point_id
-                  WHERE j.study_id = ?1 AND p.round = ?2
+                  WHERE j.study_id = ?1 AND (?2 IS NULL OR p.round = ?2)
              ) WHERE position IN (SELECT value FROM json_each(?3)) ORDER BY id",
         )
         .bind(study_id)
@@ -647,7 +670,7 @@ impl Store {
         .bind(positions)
         .fetch_all(&self.pool)
         .await
-        .map_err(query_error("read some of a round's jobs"))
+        .map_err(query_error("read some of a study's jobs"))
     }
 
     /// Responses of every job of a study, by job id then name.
@@ -741,6 +764,31 @@ impl Store {
                 .await
                 .map_err(query_error("read a job's responses"))?;
         Ok(rows.into_iter().collect())
+    }
+
+    /// The responses of the jobs `job_ids`, by job id then name (a job without any is
+    /// left out), in one query: what [`Store::job_responses`] gives for each.
+    pub async fn responses_of_jobs(
+        &self,
+        job_ids: &[i64],
+    ) -> Result<BTreeMap<i64, BTreeMap<String, f64>>, StoreError> {
+        let mut out: BTreeMap<i64, BTreeMap<String, f64>> = BTreeMap::new();
+        if job_ids.is_empty() {
+            return Ok(out);
+        }
+        let ids = serde_json::to_string(job_ids).expect("JSON of integers");
+        let rows: Vec<(i64, String, f64)> = sqlx::query_as(
+            "SELECT job_id, name, value FROM responses
+             WHERE job_id IN (SELECT value FROM json_each(?))",
+        )
+        .bind(ids)
+        .fetch_all(&self.pool)
+        .await
+        .map_err(query_error("read some jobs' responses"))?;
+        for (job, name, value) in rows {
+            out.entry(job).or_default().insert(name, value);
+        }
+        Ok(out)
     }
 
     /// One time series of a job, in time order.

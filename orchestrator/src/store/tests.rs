@@ -429,3 +429,39 @@ async fn a_round_is_counted_and_read_at_chosen_positions_in_id_order() {
     assert!(store.round_jobs_at(id, 0, &[]).await.unwrap().is_empty());
     assert!(store.round_jobs_at(id, 1, &[0]).await.unwrap().is_empty());
 }
+
+/// The report's table of runs reads only the jobs it lists, by their place in the
+/// study, and their responses in one query.
+#[tokio::test]
+async fn a_study_s_jobs_are_read_at_chosen_positions_with_their_responses() {
+    let (_dir, store, id) = store_with_study().await;
+    let all = store.jobs(id).await.unwrap();
+    let picked = store.jobs_at(id, &[1, 4, 17, 18]).await.unwrap();
+    assert_eq!(
+        picked,
+        vec![all[1].clone(), all[4].clone(), all[17].clone()]
+    );
+    assert!(store.jobs_at(id, &[]).await.unwrap().is_empty());
+    for (k, job) in all.iter().take(3).enumerate() {
+        let results = JobResults {
+            responses: vec![
+                ("discharge_rate".into(), 0.1 + k as f64),
+                ("segregation_index".into(), 0.5),
+            ],
+            series: Vec::new(),
+            note: None,
+        };
+        store.mark_rendered(job.id).await.unwrap();
+        store.mark_running(job.id, "1:1", 1.0).await.unwrap();
+        store.mark_succeeded(job.id, 0, &results).await.unwrap();
+    }
+    let ids = [all[2].id, all[0].id, all[5].id];
+    let read = store.responses_of_jobs(&ids).await.unwrap();
+    let whole = store.responses(id).await.unwrap();
+    assert_eq!(read.len(), 2, "the job without responses is left out");
+    for job in [all[0].id, all[2].id] {
+        assert_eq!(read[&job], store.job_responses(job).await.unwrap());
+        assert_eq!(read[&job], whole[&job]);
+    }
+    assert!(store.responses_of_jobs(&[]).await.unwrap().is_empty());
+}

@@ -12,7 +12,7 @@ use std::io::{self, Write};
 
 use serde_json::{Map, Value};
 
-use crate::store::{JobRow, PointRow, SeriesPages, Store, StoreError, StudyRow};
+use crate::store::{JobRow, PointRow, ResponseValues, SeriesPages, Store, StoreError, StudyRow};
 use crate::study::Study;
 
 /// One cell of an exported table.
@@ -283,7 +283,7 @@ pub struct RunRows {
     /// The table's headers.
     pub headers: Vec<String>,
     points: HashMap<i64, PointRow>,
-    responses: BTreeMap<i64, BTreeMap<String, f64>>,
+    responses: BTreeMap<i64, ResponseValues>,
     names: Vec<String>,
     jobs: Vec<JobRow>,
 }
@@ -334,13 +334,16 @@ impl RunRows {
         store: &Store,
         row: &StudyRow,
         study: Option<&Study>,
-        responses: BTreeMap<i64, BTreeMap<String, f64>>,
+        responses: BTreeMap<i64, ResponseValues>,
         jobs: Vec<JobRow>,
         points: Vec<PointRow>,
     ) -> Result<RunRows, StoreError> {
         let factors = store.factors(row.id).await?;
         let points: HashMap<i64, _> = points.into_iter().map(|p| (p.id, p)).collect();
-        let stored: BTreeSet<String> = responses.values().flat_map(|r| r.keys().cloned()).collect();
+        let stored: BTreeSet<String> = responses
+            .values()
+            .flat_map(|r| r.iter().map(|(name, _)| name.to_string()))
+            .collect();
         let names = response_order(study, &stored);
         let mut headers: Vec<String> = [
             "job",
@@ -384,7 +387,7 @@ impl RunRows {
     pub fn row(&self, k: usize) -> Vec<Cell> {
         let job = &self.jobs[k];
         let point = &self.points[&job.point_id];
-        let empty = BTreeMap::new();
+        let empty = ResponseValues::default();
         let values = self.responses.get(&job.id).unwrap_or(&empty);
         let mut cells = vec![
             Cell::Text(job.name.clone()),
@@ -400,7 +403,7 @@ impl RunRows {
         cells.extend(
             self.names
                 .iter()
-                .map(|n| values.get(n).map(|v| Cell::Real(*v)).unwrap_or(Cell::Empty)),
+                .map(|n| values.get(n).map(Cell::Real).unwrap_or(Cell::Empty)),
         );
         cells
     }

@@ -116,7 +116,7 @@ async fn observed(
         for job in &test_jobs {
             if let Some(value) = values.get(&job.id).and_then(|v| v.get(response)) {
                 test.0.push(test_points[&job.point_id].to_vec());
-                test.1.push(*value);
+                test.1.push(value);
             }
         }
     }

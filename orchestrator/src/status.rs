@@ -14,7 +14,8 @@ use serde_json::{json, Value};
 
 use crate::executor::process;
 use crate::store::{
-    FactorRow, JobRow, JobState, Store, StoreError, StoredFit, StoredRound, StudyRow, StudyState,
+    FactorRow, JobRow, JobState, ResponseValues, Store, StoreError, StoredFit, StoredRound,
+    StudyRow, StudyState,
 };
 use crate::surfaces::{self, Run};
 use crate::verdict::{self, Verdict};
@@ -143,7 +144,10 @@ impl StudyDetail {
                     point: point.idx,
                     coded: point.coded.clone(),
                     natural: point.natural.clone(),
-                    responses: responses.remove(&job.id).unwrap_or_default(),
+                    responses: responses
+                        .remove(&job.id)
+                        .map(ResponseValues::into_map)
+                        .unwrap_or_default(),
                     job,
                 }
             })

@@ -12,7 +12,9 @@ use orch_metamodel::surrogate::{ModelSpec, Surrogate};
 use orch_metamodel::{Basis, BasisKind, FactorRange};
 use serde_json::json;
 
-use crate::store::{JobRow, JobState, PointRow, Sensitivity, Store, StoreError, StoredFit};
+use crate::store::{
+    JobRow, JobState, PointRow, ResponseValues, Sensitivity, Store, StoreError, StoredFit,
+};
 
 /// One succeeded job on a design point (not a held-out test point).
 #[derive(Debug, Clone, PartialEq)]
@@ -96,12 +98,12 @@ pub async fn design_runs_taking(
     study_id: i64,
     points: Vec<PointRow>,
     jobs: Vec<JobRow>,
-    mut responses: BTreeMap<i64, BTreeMap<String, f64>>,
+    mut responses: BTreeMap<i64, ResponseValues>,
 ) -> Result<BTreeMap<i64, Vec<Run>>, StoreError> {
     let own = own_design_runs(&points, &jobs, |job_id| {
         responses
             .remove(&job_id)
-            .map(|values| values.into_iter().collect())
+            .map(ResponseValues::into_vec)
             .unwrap_or_default()
     });
     drop((points, jobs, responses));
@@ -116,12 +118,12 @@ pub async fn design_runs_from(
     study_id: i64,
     points: &[PointRow],
     jobs: &[JobRow],
-    responses: &BTreeMap<i64, BTreeMap<String, f64>>,
+    responses: &BTreeMap<i64, ResponseValues>,
 ) -> Result<BTreeMap<i64, Vec<Run>>, StoreError> {
     let own = own_design_runs(points, jobs, |job_id| {
         responses
             .get(&job_id)
-            .map(|values| values.iter().map(|(n, v)| (n.clone(), *v)).collect())
+            .map(|values| values.iter().map(|(n, v)| (n.to_string(), v)).collect())
             .unwrap_or_default()
     });
     by_round(store, study_id, own).await

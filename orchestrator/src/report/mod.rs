@@ -812,9 +812,10 @@ async fn runs_section(store: &Store, data: &Data<'_>) -> Result<String, StoreErr
     out.push_str(&shown::note(runs.len(), total, "orch export"));
     drop(runs);
 
-    // Which jobs stored each series comes from the index alone; only the lines drawn
-    // (at most MAX_SERIES_RUNS per series, each thinned to what is drawn) are read.
-    let by_series = store.series_jobs(data.row.id).await?;
+    // Which jobs stored each series comes from the index alone (their ids); only the
+    // lines drawn (at most MAX_SERIES_RUNS per series, each thinned to what is drawn)
+    // and their jobs' names are read.
+    let by_series = store.series_job_ids(data.row.id).await?;
     if by_series.is_empty() {
         out.push_str("<p class=\"note\">No run stored a time series.</p>\n");
         return Ok(out);
@@ -825,18 +826,17 @@ async fn runs_section(store: &Store, data: &Data<'_>) -> Result<String, StoreErr
         by_series.len()
     );
     for (name, jobs) in &by_series {
-        let shown = shown::evenly(jobs.len(), shown::MAX_SERIES_RUNS);
-        let mut by_job: BTreeMap<&str, Vec<(f64, f64)>> = BTreeMap::new();
-        for &k in &shown {
-            let (id, job) = &jobs[k];
-            let points = store.series(*id, name).await?;
+        let shown: Vec<i64> = shown::evenly(jobs.len(), shown::MAX_SERIES_RUNS)
+            .into_iter()
+            .map(|k| jobs[k])
+            .collect();
+        let mut by_job: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
+        for (id, job) in store.job_names(&shown).await? {
+            let points = store.series(id, name).await?;
             by_job.insert(job, decimate(&points, MAX_LINE_POINTS));
         }
         let unit = data.unit(name);
-        let lines: Vec<(String, Vec<(f64, f64)>)> = by_job
-            .into_iter()
-            .map(|(job, points)| (job.to_string(), points))
-            .collect();
+        let lines: Vec<(String, Vec<(f64, f64)>)> = by_job.into_iter().collect();
         let over = crate::export::abscissa_of(data.study, name);
         let svg = plots::lines(
             &format!("Series: {name}"),

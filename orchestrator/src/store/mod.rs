@@ -31,8 +31,8 @@ pub use rounds::{
     StoredRound,
 };
 pub use rows::{
-    Decision, FactorRow, JobRow, JobState, PointRow, StudyRow, StudyState, UnknownState,
-    DESIGN_STAGE,
+    Decision, FactorRow, JobRow, JobState, PointRow, ResponseValues, StudyRow, StudyState,
+    UnknownState, DESIGN_STAGE,
 };
 pub use series::{SeriesPages, SeriesPoint};
 
@@ -525,6 +525,22 @@ impl Store {
             .map_err(query_error("read a job"))
     }
 
+    /// The names of the jobs `job_ids`, by id (unknown ids are left out), in one query.
+    pub async fn job_names(&self, job_ids: &[i64]) -> Result<BTreeMap<i64, String>, StoreError> {
+        if job_ids.is_empty() {
+            return Ok(BTreeMap::new());
+        }
+        let ids = serde_json::to_string(job_ids).expect("JSON of integers");
+        let rows: Vec<(i64, String)> = sqlx::query_as(
+            "SELECT id, name FROM jobs WHERE id IN (SELECT value FROM json_each(?))",
+        )
+        .bind(ids)
+        .fetch_all(&self.pool)
+        .await
+        .map_err(query_error("read jobs' names"))?;
+        Ok(rows.into_iter().collect())
+    }
+
     /// The factors of a study in order.
     pub async fn factors(&self, study_id: i64) -> Result<Vec<FactorRow>, StoreError> {
         sqlx::query_as("SELECT name, min, max, unit FROM factors WHERE study_id = ? ORDER BY idx")
@@ -677,7 +693,7 @@ impl Store {
     pub async fn responses(
         &self,
         study_id: i64,
-    ) -> Result<BTreeMap<i64, BTreeMap<String, f64>>, StoreError> {
+    ) -> Result<BTreeMap<i64, ResponseValues>, StoreError> {
         // One row per job with a column per response name rather than one row per
         // value: every row crosses from SQLite's thread with its own allocations, and
         // a study has an order of magnitude more values than jobs.
@@ -706,7 +722,7 @@ impl Store {
         &self,
         study_id: i64,
         names: &[String],
-    ) -> Result<BTreeMap<i64, BTreeMap<String, f64>>, StoreError> {
+    ) -> Result<BTreeMap<i64, ResponseValues>, StoreError> {
         self.responses_by_job(study_id, names, true).await
     }
 
@@ -717,8 +733,8 @@ impl Store {
         study_id: i64,
         names: &[String],
         seek: bool,
-    ) -> Result<BTreeMap<i64, BTreeMap<String, f64>>, StoreError> {
-        let mut out: BTreeMap<i64, BTreeMap<String, f64>> = BTreeMap::new();
+    ) -> Result<BTreeMap<i64, ResponseValues>, StoreError> {
+        let mut out: BTreeMap<i64, ResponseValues> = BTreeMap::new();
         if names.is_empty() {
             return Ok(out);
         }
@@ -738,7 +754,7 @@ impl Store {
                 .map_err(query_error("read responses"))?;
             let whole = rows.len() < PAGE_LEN;
             for row in rows {
-                let values: BTreeMap<String, f64> = names
+                let values: ResponseValues = names
                     .iter()
                     .enumerate()
                     .filter_map(|(k, name)| {
@@ -771,10 +787,9 @@ impl Store {
     pub async fn responses_of_jobs(
         &self,
         job_ids: &[i64],
-    ) -> Result<BTreeMap<i64, BTreeMap<String, f64>>, StoreError> {
-        let mut out: BTreeMap<i64, BTreeMap<String, f64>> = BTreeMap::new();
+    ) -> Result<BTreeMap<i64, ResponseValues>, StoreError> {
         if job_ids.is_empty() {
-            return Ok(out);
+            return Ok(BTreeMap::new());
         }
         let ids = serde_json::to_string(job_ids).expect("JSON of integers");
         let rows: Vec<(i64, String, f64)> = sqlx::query_as(
@@ -785,10 +800,14 @@ impl Store {
         .fetch_all(&self.pool)
         .await
         .map_err(query_error("read some jobs' responses"))?;
+        let mut by_job: BTreeMap<i64, Vec<(String, f64)>> = BTreeMap::new();
         for (job, name, value) in rows {
-            out.entry(job).or_default().insert(name, value);
+            by_job.entry(job).or_default().push((name, value));
         }
-        Ok(out)
+        Ok(by_job
+            .into_iter()
+            .map(|(job, values)| (job, values.into_iter().collect()))
+            .collect())
     }
 
     /// One time series of a job, in time order.

@@ -3,7 +3,7 @@
 
 use std::collections::BTreeMap;
 
-use super::{query_error, Store, StoreError};
+use super::{query_error, Store, StoreError, PAGE_LEN, ROWS_PER_PAGE};
 
 /// One point of a stored series.
 #[derive(Debug, Clone, PartialEq)]
@@ -94,25 +94,38 @@ impl SeriesPages {
 }
 
 impl Store {
-    /// For each series name a study's jobs stored (in name order), those jobs' ids and
-    /// names in id order: what a report chooses the lines it draws from, read from
-    /// the index `series_by_job` without reading the series themselves.
-    pub async fn series_jobs(
+    /// For each series name a study's jobs stored (in name order), those jobs' ids in
+    /// id order: what a report chooses the lines it draws from, read from the index
+    /// `series_by_job` in its order (no temporary table, a page at a time) without
+    /// reading the series themselves.
+    pub async fn series_job_ids(
         &self,
         study_id: i64,
-    ) -> Result<BTreeMap<String, Vec<(i64, String)>>, StoreError> {
-        let rows: Vec<(i64, String, String)> = sqlx::query_as(
-            "SELECT j.id, j.name, s.name FROM jobs j JOIN series s ON s.job_id = j.id
-             WHERE j.study_id = ? GROUP BY j.id, s.name ORDER BY j.id, s.name",
-        )
-        .bind(study_id)
-        .fetch_all(&self.pool)
-        .await
-        .map_err(query_error("list the jobs with series"))?;
-        let mut out: BTreeMap<String, Vec<(i64, String)>> = BTreeMap::new();
-        for (id, job, series) in rows {
-            out.entry(series).or_default().push((id, job));
+    ) -> Result<BTreeMap<String, Vec<i64>>, StoreError> {
+        let mut out: BTreeMap<String, Vec<i64>> = BTreeMap::new();
+        let (mut job, mut series) = (i64::MIN, String::new());
+        loop {
+            let page: Vec<(i64, String)> = sqlx::query_as(
+                "SELECT j.id, s.name FROM jobs j JOIN series s ON s.job_id = j.id
+                  WHERE j.study_id = ?1 AND (j.id, s.name) > (?2, ?3)
+                  GROUP BY j.id, s.name ORDER BY j.id, s.name LIMIT ?4",
+            )
+            .bind(study_id)
+            .bind(job)
+            .bind(&series)
+            .bind(ROWS_PER_PAGE)
+            .fetch_all(&self.pool)
+            .await
+            .map_err(query_error("list the jobs with series"))?;
+            let whole = page.len() < PAGE_LEN;
+            for (id, name) in page {
+                job = id;
+                series.clone_from(&name);
+                out.entry(name).or_default().push(id);
+            }
+            if whole {
+                return Ok(out);
+            }
         }
-        Ok(out)
     }
 }

@@ -69,8 +69,8 @@ async fn a_job_moves_through_its_states_and_keeps_its_results() {
         (JobState::Succeeded, 1, Some(0))
     );
     assert_eq!(
-        store.responses(id).await.unwrap()[&job]["discharge_rate"],
-        0.15
+        store.responses(id).await.unwrap()[&job].get("discharge_rate"),
+        Some(0.15)
     );
     assert_eq!(
         store.series(job, "mass_flow_rate").await.unwrap(),
@@ -460,8 +460,106 @@ async fn a_study_s_jobs_are_read_at_chosen_positions_with_their_responses() {
     let whole = store.responses(id).await.unwrap();
     assert_eq!(read.len(), 2, "the job without responses is left out");
     for job in [all[0].id, all[2].id] {
-        assert_eq!(read[&job], store.job_responses(job).await.unwrap());
+        assert_eq!(
+            read[&job].clone().into_map(),
+            store.job_responses(job).await.unwrap()
+        );
         assert_eq!(read[&job], whole[&job]);
     }
     assert!(store.responses_of_jobs(&[]).await.unwrap().is_empty());
+}
+
+/// A job's values are kept in name order, looked up by name, and a name given twice
+/// keeps its last value, as a map would.
+#[test]
+fn response_values_are_sorted_by_name_and_the_last_of_a_name_is_kept() {
+    let values: ResponseValues = [("rate", 1.0), ("index", 2.0), ("rate", 3.0)]
+        .into_iter()
+        .map(|(n, v)| (n.to_string(), v))
+        .collect();
+    assert_eq!(
+        values.iter().collect::<Vec<_>>(),
+        vec![("index", 2.0), ("rate", 3.0)]
+    );
+    assert_eq!(
+        (values.get("rate"), values.get("index"), values.get("speed")),
+        (Some(3.0), Some(2.0), None)
+    );
+    assert!(ResponseValues::default().is_empty());
+}
+
+/// The report's series charts find the jobs of each series from the index and read
+/// only the names of the jobs they draw.
+#[tokio::test]
+async fn the_jobs_of_each_series_are_listed_by_id_and_named_on_demand() {
+    let (_dir, store, id) = store_with_study().await;
+    let all = store.jobs(id).await.unwrap();
+    assert!(store.series_job_ids(id).await.unwrap().is_empty());
+    // Jobs 0, 2 and 3 store a mass flow; job 2 also a radial density.
+    for (k, job) in [&all[0], &all[2], &all[3]].into_iter().enumerate() {
+        let mut series = vec![("mass_flow_rate".to_string(), vec![(0.1, 1.0), (0.2, 2.0)])];
+        if k == 1 {
+            series.push(("radial_density".to_string(), vec![(0.0, 3.0)]));
+        }
+        let results = JobResults {
+            responses: Vec::new(),
+            series,
+            note: None,
+        };
+        store.mark_rendered(job.id).await.unwrap();
+        store.mark_running(job.id, "1:1", 1.0).await.unwrap();
+        store.mark_succeeded(job.id, 0, &results).await.unwrap();
+    }
+    let by_series = store.series_job_ids(id).await.unwrap();
+    assert_eq!(
+        by_series.into_iter().collect::<Vec<_>>(),
+        vec![
+            (
+                "mass_flow_rate".to_string(),
+                vec![all[0].id, all[2].id, all[3].id]
+            ),
+            ("radial_density".to_string(), vec![all[2].id]),
+        ]
+    );
+    let names = store
+        .job_names(&[all[3].id, all[0].id, i64::MAX])
+        .await
+        .unwrap();
+    assert_eq!(
+        names.into_iter().collect::<Vec<_>>(),
+        vec![
+            (all[0].id, all[0].name.clone()),
+            (all[3].id, all[3].name.clone())
+        ]
+    );
+    assert!(store.job_names(&[]).await.unwrap().is_empty());
+}
+
+/// The jobs of each series are read a page at a time: a page may end inside a job's
+/// series names, and the next page goes on from there.
+#[tokio::test]
+async fn the_jobs_of_each_series_are_read_across_pages() {
+    let (_dir, store, id) = store_with_study().await;
+    let all = store.jobs(id).await.unwrap();
+    let names: Vec<String> = (0..super::PAGE_LEN + 5)
+        .map(|k| format!("s{k:05}"))
+        .collect();
+    for job in &all[..2] {
+        let results = JobResults {
+            responses: Vec::new(),
+            series: names
+                .iter()
+                .map(|n| (n.clone(), vec![(0.0, 1.0)]))
+                .collect(),
+            note: None,
+        };
+        store.mark_rendered(job.id).await.unwrap();
+        store.mark_running(job.id, "1:1", 1.0).await.unwrap();
+        store.mark_succeeded(job.id, 0, &results).await.unwrap();
+    }
+    let by_series = store.series_job_ids(id).await.unwrap();
+    assert_eq!(by_series.len(), names.len());
+    assert!(by_series
+        .values()
+        .all(|jobs| *jobs == [all[0].id, all[1].id]));
 }

@@ -1071,7 +1071,9 @@ mod tests {
             job: format!("p{x}"),
             coded: vec![x],
             natural: vec![0.024 + 0.004 * x],
-            responses: vec![("fraction".into(), 1.0), ("rate".into(), rate)],
+            responses: [("fraction".to_string(), 1.0), ("rate".to_string(), rate)]
+                .into_iter()
+                .collect(),
         }
     }
 

@@ -25,18 +25,14 @@ pub struct Run {
     pub coded: Vec<f64>,
     /// Natural factor values (SI units).
     pub natural: Vec<f64>,
-    /// Its responses, by name in name order. A list, not a map: a map's first node
-    /// holds room for eleven entries, most of a run's memory when a study of 10^4 runs
-    /// keeps the one or two responses it fits.
-    pub responses: Vec<(String, f64)>,
+    /// Its responses, by name.
+    pub responses: ResponseValues,
 }
 
 impl Run {
     /// The value of the response `name`, if this run has it.
     pub fn response(&self, name: &str) -> Option<f64> {
-        self.responses
-            .iter()
-            .find_map(|(n, v)| (n == name).then_some(*v))
+        self.responses.get(name)
     }
 }
 
@@ -101,10 +97,7 @@ pub async fn design_runs_taking(
     mut responses: BTreeMap<i64, ResponseValues>,
 ) -> Result<BTreeMap<i64, Vec<Run>>, StoreError> {
     let own = own_design_runs(&points, &jobs, |job_id| {
-        responses
-            .remove(&job_id)
-            .map(ResponseValues::into_vec)
-            .unwrap_or_default()
+        responses.remove(&job_id).unwrap_or_default()
     });
     drop((points, jobs, responses));
     by_round(store, study_id, own).await
@@ -121,10 +114,7 @@ pub async fn design_runs_from(
     responses: &BTreeMap<i64, ResponseValues>,
 ) -> Result<BTreeMap<i64, Vec<Run>>, StoreError> {
     let own = own_design_runs(points, jobs, |job_id| {
-        responses
-            .get(&job_id)
-            .map(|values| values.iter().map(|(n, v)| (n.to_string(), v)).collect())
-            .unwrap_or_default()
+        responses.get(&job_id).cloned().unwrap_or_default()
     });
     by_round(store, study_id, own).await
 }
@@ -186,7 +176,7 @@ pub fn runs_inside(own: &BTreeMap<i64, Vec<Run>>, round: i64, ranges: &[FactorRa
 fn own_design_runs(
     points: &[PointRow],
     jobs: &[JobRow],
-    mut responses_of: impl FnMut(i64) -> Vec<(String, f64)>,
+    mut responses_of: impl FnMut(i64) -> ResponseValues,
 ) -> BTreeMap<i64, Vec<Run>> {
     let points: HashMap<i64, &PointRow> = points
         .iter()
@@ -363,7 +353,7 @@ mod tests {
             job: format!("j{}", coded[0]),
             natural: coded.clone(),
             coded,
-            responses: vec![("y".to_string(), value)],
+            responses: [("y".to_string(), value)].into_iter().collect(),
         }
     }
 
@@ -416,7 +406,7 @@ mod tests {
             job: job.into(),
             coded: vec![coded],
             natural: vec![natural],
-            responses: Vec::new(),
+            responses: Default::default(),
         };
         // Round 0 over [0, 10]; round 1 over [4, 8].
         let own = BTreeMap::from([

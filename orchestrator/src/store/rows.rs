@@ -455,11 +455,6 @@ impl ResponseValues {
         self.0.is_empty()
     }
 
-    /// The names and values, in name order, taken over.
-    pub fn into_vec(self) -> Vec<(String, f64)> {
-        self.0
-    }
-
     /// The values as a map by name.
     pub fn into_map(self) -> std::collections::BTreeMap<String, f64> {
         self.0.into_iter().collect()

@@ -20,7 +20,7 @@ use std::collections::{HashMap, HashSet};
 
 use orch_adapters::Case;
 
-use crate::store::{JobRow, JobState, DESIGN_STAGE};
+use crate::store::{JobLink, JobState, DESIGN_STAGE};
 
 /// The stage kind of a DEM job run in the air of the CFD job before it.
 pub const AIR_STAGE: &str = "air";
@@ -95,16 +95,16 @@ pub fn settled(before: f64, now: f64, tolerance: f64) -> Option<f64> {
 }
 
 /// True for the jobs that run the DEM: design jobs and [`AIR_STAGE`] jobs.
-fn runs_dem(job: &JobRow) -> bool {
-    job.stage == DESIGN_STAGE || job.stage == AIR_STAGE
+fn runs_dem(job: &impl JobLink) -> bool {
+    job.stage() == DESIGN_STAGE || job.stage() == AIR_STAGE
 }
 
 /// Succeeded jobs that a later job of the same chain replaces: a DEM run followed (two
 /// jobs on) by a succeeded DEM run in air, and a CFD run followed by a succeeded CFD
 /// run. Fits use every other succeeded job.
-pub fn superseded(jobs: &[JobRow]) -> HashSet<i64> {
-    let by_id: HashMap<i64, &JobRow> = jobs.iter().map(|j| (j.id, j)).collect();
-    let before = |job: &JobRow| job.after_job_id.and_then(|id| by_id.get(&id).copied());
+pub fn superseded<J: JobLink>(jobs: &[J]) -> HashSet<i64> {
+    let by_id: HashMap<i64, &J> = jobs.iter().map(|j| (j.id(), j)).collect();
+    let before = |job: &J| job.after_job_id().and_then(|id| by_id.get(&id).copied());
     jobs.iter()
         .filter(|j| j.state() == JobState::Succeeded)
         .filter_map(|later| {
@@ -112,9 +112,9 @@ pub fn superseded(jobs: &[JobRow]) -> HashSet<i64> {
             let same_kind = if runs_dem(later) {
                 runs_dem(earlier)
             } else {
-                earlier.stage == later.stage
+                earlier.stage() == later.stage()
             };
-            (same_kind && earlier.state() == JobState::Succeeded).then_some(earlier.id)
+            (same_kind && earlier.state() == JobState::Succeeded).then_some(earlier.id())
         })
         .collect()
 }
@@ -122,6 +122,7 @@ pub fn superseded(jobs: &[JobRow]) -> HashSet<i64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::store::{JobLinkRow, JobRow};
 
     fn job(id: i64, stage: &str, after: Option<i64>, state: JobState) -> JobRow {
         JobRow {
@@ -193,6 +194,19 @@ mod tests {
         assert_eq!(superseded(&jobs), HashSet::from([1, 2]));
         // Without coupling nothing is superseded.
         assert!(superseded(&jobs[..2]).is_empty());
+        // The lean rows an analysis reads say the same.
+        let lean: Vec<JobLinkRow> = jobs
+            .iter()
+            .map(|j| JobLinkRow {
+                id: j.id,
+                point_id: j.point_id,
+                name: j.name.as_str().into(),
+                state: j.state,
+                stage: j.stage.as_str().into(),
+                after_job_id: j.after_job_id,
+            })
+            .collect();
+        assert_eq!(superseded(&lean), HashSet::from([1, 2]));
     }
 
     #[test]

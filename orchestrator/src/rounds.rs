@@ -15,7 +15,7 @@ use orch_metamodel::surrogate::{choose, Choice, Surrogate};
 use orch_metamodel::{lack_of_fit, BasisKind, Goal, KrigingOptions, Nugget};
 
 use crate::store::{
-    CandidateScore, Decision, FitRecord, JobRow, JobState, LackOfFitRow, RoundRecord, Store,
+    CandidateScore, Decision, FitRecord, JobLinkRow, JobState, LackOfFitRow, RoundRecord, Store,
     StoreError,
 };
 use crate::study::{Objective, Study};
@@ -100,15 +100,15 @@ async fn observed(
     // first; the design runs then take the rest over (not a copy of it).
     let points = store.points(study_id).await?;
     let values = store.responses_named(study_id, responses).await?;
-    let jobs = store.jobs(study_id).await?;
+    let jobs = store.job_links(study_id).await?;
     let test_points: HashMap<i64, &[f64]> = points
         .iter()
         .filter(|p| p.round == round && p.purpose == "test")
         .map(|p| (p.id, p.coded.as_slice()))
         .collect();
-    let test_jobs: Vec<&JobRow> = jobs
+    let test_jobs: Vec<&JobLinkRow> = jobs
         .iter()
-        .filter(|j| test_points.contains_key(&j.point_id) && j.state() == JobState::Succeeded)
+        .filter(|j| test_points.contains_key(&j.point_id) && j.state == JobState::Succeeded)
         .collect();
     let mut tests: HashMap<&String, (Vec<Vec<f64>>, Vec<f64>)> = HashMap::new();
     for response in responses {

@@ -13,7 +13,8 @@ use orch_metamodel::{Basis, BasisKind, FactorRange};
 use serde_json::json;
 
 use crate::store::{
-    JobRow, JobState, PointRow, ResponseValues, Sensitivity, Store, StoreError, StoredFit,
+    JobLink, JobLinkRow, JobState, PointRow, ResponseValues, Sensitivity, Store, StoreError,
+    StoredFit,
 };
 
 /// One succeeded job on a design point (not a held-out test point).
@@ -81,7 +82,7 @@ pub async fn design_runs_named(
 ) -> Result<BTreeMap<i64, Vec<Run>>, StoreError> {
     let points = store.points(study_id).await?;
     let responses = store.responses_named(study_id, names).await?;
-    let jobs = store.jobs(study_id).await?;
+    let jobs = store.job_links(study_id).await?;
     design_runs_taking(store, study_id, points, jobs, responses).await
 }
 
@@ -93,7 +94,7 @@ pub async fn design_runs_taking(
     store: &Store,
     study_id: i64,
     points: Vec<PointRow>,
-    jobs: Vec<JobRow>,
+    jobs: Vec<JobLinkRow>,
     mut responses: BTreeMap<i64, ResponseValues>,
 ) -> Result<BTreeMap<i64, Vec<Run>>, StoreError> {
     let own = own_design_runs(&points, &jobs, |job_id| {
@@ -110,7 +111,7 @@ pub async fn design_runs_from(
     store: &Store,
     study_id: i64,
     points: &[PointRow],
-    jobs: &[JobRow],
+    jobs: &[impl JobLink],
     responses: &BTreeMap<i64, ResponseValues>,
 ) -> Result<BTreeMap<i64, Vec<Run>>, StoreError> {
     let own = own_design_runs(points, jobs, |job_id| {
@@ -173,9 +174,9 @@ pub fn runs_inside(own: &BTreeMap<i64, Vec<Run>>, round: i64, ranges: &[FactorRa
 
 /// Succeeded runs on design points (not held-out test points), by the round that ran
 /// them, in job order; `responses_of` gives a job's responses in name order.
-fn own_design_runs(
+fn own_design_runs<J: JobLink>(
     points: &[PointRow],
-    jobs: &[JobRow],
+    jobs: &[J],
     mut responses_of: impl FnMut(i64) -> ResponseValues,
 ) -> BTreeMap<i64, Vec<Run>> {
     let points: HashMap<i64, &PointRow> = points
@@ -187,15 +188,15 @@ fn own_design_runs(
     // A coupled chain's later DEM and CFD runs replace its earlier ones.
     let superseded = crate::coupling::superseded(jobs);
     for job in jobs {
-        let Some(point) = points.get(&job.point_id) else {
+        let Some(point) = points.get(&job.point_id()) else {
             continue;
         };
-        if job.state() != JobState::Succeeded || superseded.contains(&job.id) {
+        if job.state() != JobState::Succeeded || superseded.contains(&job.id()) {
             continue;
         }
         out.entry(point.round).or_default().push(Run {
-            responses: responses_of(job.id),
-            job: job.name.clone(),
+            responses: responses_of(job.id()),
+            job: job.name().to_string(),
             coded: point.coded.clone(),
             natural: point.natural.clone(),
         });

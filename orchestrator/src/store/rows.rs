@@ -400,6 +400,105 @@ impl<'r> sqlx::FromRow<'r, SqliteRow> for JobRow {
     }
 }
 
+/// What the analysis needs of a job to tie it to its design point and its chain: the
+/// fields a run keeps. [`JobRow`] and the lean [`JobLinkRow`] both have them, so the
+/// same code links the jobs a status view read whole and those a round analysis read
+/// lean.
+pub trait JobLink {
+    /// Id.
+    fn id(&self) -> i64;
+    /// Design point id.
+    fn point_id(&self) -> i64;
+    /// Name within the study.
+    fn name(&self) -> &str;
+    /// State.
+    fn state(&self) -> JobState;
+    /// [`DESIGN_STAGE`] or the kind of the stage chained after [`JobLink::after_job_id`].
+    fn stage(&self) -> &str;
+    /// The job this one follows in its chain.
+    fn after_job_id(&self) -> Option<i64>;
+}
+
+impl JobLink for JobRow {
+    fn id(&self) -> i64 {
+        self.id
+    }
+    fn point_id(&self) -> i64 {
+        self.point_id
+    }
+    fn name(&self) -> &str {
+        &self.name
+    }
+    fn state(&self) -> JobState {
+        self.state
+    }
+    fn stage(&self) -> &str {
+        &self.stage
+    }
+    fn after_job_id(&self) -> Option<i64> {
+        self.after_job_id
+    }
+}
+
+/// A lean read of a row of `jobs`: only its [`JobLink`] fields, without the run
+/// directory, executor handle, times and error text, so that an analysis of a
+/// 10^4-job study holds a fraction of the whole rows.
+#[derive(Debug, Clone, PartialEq)]
+pub struct JobLinkRow {
+    /// Id.
+    pub id: i64,
+    /// Design point id.
+    pub point_id: i64,
+    /// Name within the study.
+    pub name: Box<str>,
+    /// State.
+    pub state: JobState,
+    /// [`DESIGN_STAGE`] or a stage kind.
+    pub stage: Box<str>,
+    /// The job this one follows.
+    pub after_job_id: Option<i64>,
+}
+
+impl JobLinkRow {
+    /// The columns a [`JobLinkRow`] is read from, for a `SELECT`.
+    pub const COLUMNS: &'static str = "id, point_id, name, state, stage, after_job_id";
+}
+
+impl JobLink for JobLinkRow {
+    fn id(&self) -> i64 {
+        self.id
+    }
+    fn point_id(&self) -> i64 {
+        self.point_id
+    }
+    fn name(&self) -> &str {
+        &self.name
+    }
+    fn state(&self) -> JobState {
+        self.state
+    }
+    fn stage(&self) -> &str {
+        &self.stage
+    }
+    fn after_job_id(&self) -> Option<i64> {
+        self.after_job_id
+    }
+}
+
+impl<'r> sqlx::FromRow<'r, SqliteRow> for JobLinkRow {
+    fn from_row(row: &'r SqliteRow) -> sqlx::Result<Self> {
+        let id = row.try_get("id")?;
+        Ok(JobLinkRow {
+            id,
+            point_id: row.try_get("point_id")?,
+            name: row.try_get::<String, _>("name")?.into_boxed_str(),
+            state: state_of(row, "jobs", id)?,
+            stage: row.try_get::<String, _>("stage")?.into_boxed_str(),
+            after_job_id: row.try_get("after_job_id")?,
+        })
+    }
+}
+
 /// A factor of a study.
 #[derive(Debug, Clone, PartialEq, sqlx::FromRow)]
 pub struct FactorRow {

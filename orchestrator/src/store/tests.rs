@@ -563,3 +563,41 @@ async fn the_jobs_of_each_series_are_read_across_pages() {
         .values()
         .all(|jobs| *jobs == [all[0].id, all[1].id]));
 }
+
+/// The analysis's lean read of the jobs keeps each job's link fields as the whole
+/// rows have them, in the same order.
+#[tokio::test]
+async fn a_study_s_job_links_are_its_jobs_link_fields() {
+    let (_dir, store, id) = store_with_study().await;
+    let first = store.jobs(id).await.unwrap()[0].id;
+    store.mark_rendered(first).await.unwrap();
+    store.mark_running(first, "1:1", 1.0).await.unwrap();
+    store
+        .mark_failed(first, Some(1), "the solver crashed")
+        .await
+        .unwrap();
+    let whole = store.jobs(id).await.unwrap();
+    let lean = store.job_links(id).await.unwrap();
+    assert_eq!(lean.len(), whole.len());
+    for (l, w) in lean.iter().zip(&whole) {
+        assert_eq!(
+            (
+                l.id(),
+                l.point_id(),
+                l.name(),
+                l.state(),
+                l.stage(),
+                l.after_job_id()
+            ),
+            (
+                w.id,
+                w.point_id,
+                w.name.as_str(),
+                w.state,
+                w.stage.as_str(),
+                w.after_job_id
+            )
+        );
+    }
+    assert_eq!(lean[0].state, JobState::Failed);
+}

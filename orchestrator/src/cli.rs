@@ -1321,9 +1321,9 @@ async fn cancel(project_dir: Option<&Path>, name: &str) -> anyhow::Result<i32> {
 /// `retry_failed`, failed) jobs back in the queue. A study another live driver holds is
 /// refused before anything is written.
 async fn claim_and_reopen(store: &Store, row: &StudyRow, retry_failed: bool) -> anyhow::Result<()> {
-    // Every job is read before the claim: a store this orch cannot read (a state it
-    // does not know) is refused before anything is written.
-    store.jobs(row.id).await?;
+    // Every job's state is read before the claim: a store this orch cannot read (a
+    // state it does not know) is refused before anything is written.
+    store.job_links(row.id).await?;
     let (pid, started) = process::current();
     store
         .claim_driver(row, pid, started, process::is_alive)
@@ -1339,8 +1339,8 @@ async fn claim_and_reopen(store: &Store, row: &StudyRow, retry_failed: bool) -> 
 
 /// Puts cancelled (and with `retry_failed`, failed) jobs back in the queue.
 async fn reopen(store: &Store, row: &StudyRow, retry_failed: bool) -> anyhow::Result<()> {
-    for job in store.jobs(row.id).await? {
-        let state = job.state();
+    for job in store.job_links(row.id).await? {
+        let state = job.state;
         if state == JobState::Cancelled || (retry_failed && state == JobState::Failed) {
             store.reopen(job.id, retry_failed).await?;
         }
@@ -1355,10 +1355,10 @@ async fn resume(project_dir: Option<&Path>, name: &str, retry_failed: bool) -> a
         .map_err(|e| input_error(format!("the stored study file no longer validates: {e}")))?;
     claim_and_reopen(&store, &row, retry_failed).await?;
     if store
-        .jobs(row.id)
+        .job_links(row.id)
         .await?
         .iter()
-        .all(|j| j.state().is_final())
+        .all(|j| j.state.is_final())
     {
         errln!("orch: every job of `{name}` is final; nothing to resume (use --retry-failed to run failed jobs again)");
     }

@@ -260,7 +260,9 @@ pub async fn runs_table(
 }
 
 /// Writes [`runs_table`] to `out` a row at a time, in the same text, without holding
-/// the table's rows or text. Returns the rows written.
+/// the table: the jobs are read a page at a time ([`Store::jobs_after`]) with their
+/// points and responses, so memory does not grow with the study. Returns the rows
+/// written.
 pub async fn write_runs(
     store: &Store,
     row: &StudyRow,
@@ -268,13 +270,24 @@ pub async fn write_runs(
     format: Format,
     out: impl Write,
 ) -> Result<usize, ExportError> {
-    let runs = RunRows::read(store, row, study).await?;
+    let first = store.jobs_after(row.id, i64::MIN).await?;
+    let mut runs = RunRows::of_jobs(store, row, study, first).await?;
     let mut writer = TableWriter::new(out, format, runs.headers.clone())?;
-    for k in 0..runs.len() {
-        writer.row(&runs.row(k))?;
+    loop {
+        for k in 0..runs.len() {
+            writer.row(&runs.row(k))?;
+        }
+        let (Some(last), true) = (runs.jobs.last(), runs.len() == PAGE_LEN) else {
+            break;
+        };
+        let page = store.jobs_after(row.id, last.id).await?;
+        runs = runs.with_jobs(store, page).await?;
     }
     Ok(writer.finish()?)
 }
+
+/// The jobs of a full page of [`Store::jobs_after`].
+const PAGE_LEN: usize = crate::store::ROWS_PER_PAGE as usize;
 
 /// What the rows of [`runs_table`] are made from, read from the store once (each
 /// table in one query); a row's cells are made when asked for, so a caller that
@@ -312,10 +325,18 @@ impl RunRows {
     ) -> Result<(RunRows, usize), StoreError> {
         let total: usize = store.job_counts(row.id).await?.values().sum();
         let jobs = store.jobs_at(row.id, &choose(total)).await?;
-        let job_ids: Vec<i64> = jobs.iter().map(|job| job.id).collect();
-        let point_ids: Vec<i64> = jobs.iter().map(|job| job.point_id).collect();
-        let responses = store.responses_of_jobs(&job_ids).await?;
-        let points = store.points_by_id(&point_ids).await?;
+        Ok((RunRows::of_jobs(store, row, study, jobs).await?, total))
+    }
+
+    /// The rows of `jobs` (in id order), with the headers of every row of the
+    /// study: only their points and responses are read.
+    async fn of_jobs(
+        store: &Store,
+        row: &StudyRow,
+        study: Option<&Study>,
+        jobs: Vec<JobRow>,
+    ) -> Result<RunRows, StoreError> {
+        let (responses, points) = RunRows::points_and_responses(store, &jobs).await?;
         let mut runs = RunRows::of(store, row, study, responses, jobs, points).await?;
         // The headers name every stored response, not only the chosen rows'.
         let stored: BTreeSet<String> = store.response_names(row.id).await?.into_iter().collect();
@@ -327,7 +348,30 @@ impl RunRows {
                 .map(|n| header(n, unit_of(study, n).as_deref())),
         );
         runs.names = names;
-        Ok((runs, total))
+        Ok(runs)
+    }
+
+    /// The rows of `jobs` (in id order) with these rows' headers and response
+    /// columns: the next page of a table, without the study's names read again.
+    async fn with_jobs(self, store: &Store, jobs: Vec<JobRow>) -> Result<RunRows, StoreError> {
+        let (responses, points) = RunRows::points_and_responses(store, &jobs).await?;
+        Ok(RunRows {
+            points: points.into_iter().map(|p| (p.id, p)).collect(),
+            responses,
+            jobs,
+            ..self
+        })
+    }
+
+    /// The responses and points of `jobs`, each in one query.
+    async fn points_and_responses(
+        store: &Store,
+        jobs: &[JobRow],
+    ) -> Result<(BTreeMap<i64, ResponseValues>, Vec<PointRow>), StoreError> {
+        let job_ids: Vec<i64> = jobs.iter().map(|job| job.id).collect();
+        let point_ids: Vec<i64> = jobs.iter().map(|job| job.point_id).collect();
+        let responses = store.responses_of_jobs(&job_ids).await?;
+        Ok((responses, store.points_by_id(&point_ids).await?))
     }
 
     async fn of(
@@ -511,6 +555,45 @@ mod tests {
         };
         assert_eq!(empty.render(Format::Json), "[]\n");
         assert_eq!(empty.render(Format::Csv), "job,x [m],note\r\n");
+    }
+
+    /// The runs table written a page of jobs at a time is the table read whole, also
+    /// when the study has more jobs than a page and responses on either side of the
+    /// page boundary.
+    #[tokio::test]
+    async fn runs_written_page_by_page_are_the_whole_table() {
+        use crate::store::JobResults;
+        let levels = PAGE_LEN + 3;
+        let text = format!("name: big\nsolver: native\nfactors:\n  - {{name: outlet_diameter, min: 0.020, max: 0.028, unit: m}}\ndesign: {{type: full_factorial, levels: {levels}}}\n");
+        let dir = tempfile::tempdir().unwrap();
+        let store = Store::open(dir.path()).await.unwrap();
+        let study = Study::from_text(std::path::Path::new("big.yaml"), &text, None).unwrap();
+        let id = store
+            .insert_study(&study, std::path::Path::new("big.yaml"), dir.path())
+            .await
+            .unwrap();
+        let jobs = store.jobs(id).await.unwrap();
+        assert_eq!(jobs.len(), levels);
+        for (k, job) in [(0, &jobs[0]), (1, &jobs[PAGE_LEN]), (2, &jobs[levels - 1])] {
+            store.mark_rendered(job.id).await.unwrap();
+            store.mark_running(job.id, "1:1", 0.0).await.unwrap();
+            let results = JobResults {
+                responses: vec![(format!("r{k}"), k as f64 + 0.5)],
+                ..JobResults::default()
+            };
+            store.mark_succeeded(job.id, 0, &results).await.unwrap();
+        }
+        let row = store.study_by_name("big").await.unwrap().unwrap();
+        let whole = runs_table(&store, &row, Some(&study)).await.unwrap();
+        for format in [Format::Csv, Format::Json] {
+            let mut written = Vec::new();
+            let rows = write_runs(&store, &row, Some(&study), format, &mut written)
+                .await
+                .unwrap();
+            assert_eq!(rows, levels);
+            assert_eq!(String::from_utf8(written).unwrap(), whole.render(format));
+        }
+        assert_eq!(whole.headers[whole.headers.len() - 3..], ["r0", "r1", "r2"]);
     }
 
     /// A small stored study with series on some jobs: the long table pages through the

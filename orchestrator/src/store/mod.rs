@@ -410,21 +410,32 @@ impl Store {
     pub async fn jobs(&self, study_id: i64) -> Result<Vec<JobRow>, StoreError> {
         let mut jobs: Vec<JobRow> = Vec::new();
         loop {
-            let page: Vec<JobRow> = sqlx::query_as(
-                "SELECT * FROM jobs WHERE study_id = ? AND id > ? ORDER BY id LIMIT ?",
-            )
-            .bind(study_id)
-            .bind(jobs.last().map_or(i64::MIN, |j| j.id))
-            .bind(ROWS_PER_PAGE)
-            .fetch_all(&self.pool)
-            .await
-            .map_err(query_error("list jobs"))?;
+            let page = self
+                .jobs_after(study_id, jobs.last().map_or(i64::MIN, |j| j.id))
+                .await?;
             let whole = page.len() < PAGE_LEN;
             jobs.extend(page);
             if whole {
                 return Ok(jobs);
             }
         }
+    }
+
+    /// The next page of a study's jobs: up to [`ROWS_PER_PAGE`] of them with ids
+    /// above `after_id`, in id order; fewer than a page means the last. A command
+    /// that writes every job goes through the study this way and holds one page.
+    pub async fn jobs_after(
+        &self,
+        study_id: i64,
+        after_id: i64,
+    ) -> Result<Vec<JobRow>, StoreError> {
+        sqlx::query_as("SELECT * FROM jobs WHERE study_id = ? AND id > ? ORDER BY id LIMIT ?")
+            .bind(study_id)
+            .bind(after_id)
+            .bind(ROWS_PER_PAGE)
+            .fetch_all(&self.pool)
+            .await
+            .map_err(query_error("list jobs"))
     }
 
     /// Every job of a study as [`JobLinkRow`]s (no run directories, handles or error

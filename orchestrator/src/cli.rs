@@ -949,26 +949,26 @@ async fn show_status(
                 .await?
                 .map(|s| s.shown_responses())
                 .unwrap_or_default();
-            let detail = if as_json {
-                StudyDetail::load(&store, row).await?
-            } else {
-                StudyDetail::load_shown(&store, row, &responses).await?
-            };
             if as_json {
-                // Written as it is made: a study's JSON grows with its jobs.
+                // Written as it is read, a page of jobs at a time: a study's JSON grows
+                // with its jobs.
                 use std::io::Write;
-                let mut stdout = std::io::BufWriter::new(std::io::stdout().lock());
-                let written = detail
-                    .write_json(&project, &mut stdout)
-                    .map_err(std::io::Error::from)
-                    .and_then(|()| stdout.write_all(b"\n"))
-                    .and_then(|()| stdout.flush());
+                let stdout = std::io::BufWriter::new(std::io::stdout().lock());
+                let written: Result<(), status::WriteJsonError> = async {
+                    let mut stdout =
+                        status::write_json_paged(&store, row, &project, stdout).await?;
+                    stdout.write_all(b"\n")?;
+                    Ok(stdout.flush()?)
+                }
+                .await;
                 match written {
                     // The reader has gone (`| head`): nobody wants the rest.
-                    Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => {}
+                    Err(status::WriteJsonError::Write(e))
+                        if e.kind() == std::io::ErrorKind::BrokenPipe => {}
                     other => other?,
                 }
             } else {
+                let detail = StudyDetail::load_shown(&store, row, &responses).await?;
                 out!("{}", detail.table(&responses))?;
             }
         }

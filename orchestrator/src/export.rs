@@ -270,6 +270,9 @@ pub async fn write_runs(
     format: Format,
     out: impl Write,
 ) -> Result<usize, ExportError> {
+    // Every job's state is checked before a byte is written (one counting query): a
+    // store with a state this orch does not know is refused with nothing printed.
+    store.job_counts(row.id).await?;
     let first = store.jobs_after(row.id, i64::MIN).await?;
     let mut runs = RunRows::of_jobs(store, row, study, first).await?;
     let mut writer = TableWriter::new(out, format, runs.headers.clone())?;

@@ -8,14 +8,15 @@
 //! none is alive, since nothing moves until `orch resume`.
 
 use std::collections::BTreeMap;
+use std::io::{self, Write};
 use std::path::Path;
 
 use serde_json::{json, Value};
 
 use crate::executor::process;
 use crate::store::{
-    FactorRow, JobRow, JobState, ResponseValues, Store, StoreError, StoredFit, StoredRound,
-    StudyRow, StudyState,
+    FactorRow, JobRow, JobState, PointRow, ResponseValues, Store, StoreError, StoredFit,
+    StoredRound, StudyRow, StudyState,
 };
 use crate::surfaces::{self, Run};
 use crate::verdict::{self, Verdict};
@@ -94,6 +95,28 @@ pub struct JobDetail {
     pub responses: BTreeMap<String, f64>,
 }
 
+impl JobDetail {
+    /// `job` with its point (from `points`, by id) and its responses, taken out of
+    /// `responses` (by job id).
+    fn of(
+        job: JobRow,
+        points: &BTreeMap<i64, PointRow>,
+        responses: &mut BTreeMap<i64, ResponseValues>,
+    ) -> JobDetail {
+        let point = &points[&job.point_id];
+        JobDetail {
+            point: point.idx,
+            coded: point.coded.clone(),
+            natural: point.natural.clone(),
+            responses: responses
+                .remove(&job.id)
+                .map(ResponseValues::into_map)
+                .unwrap_or_default(),
+            job,
+        }
+    }
+}
+
 impl StudyDetail {
     /// Reads a study's detail from the store.
     pub async fn load(store: &Store, study: StudyRow) -> Result<StudyDetail, StoreError> {
@@ -138,19 +161,7 @@ impl StudyDetail {
         let points: BTreeMap<i64, _> = points.into_iter().map(|p| (p.id, p)).collect();
         let jobs = jobs
             .into_iter()
-            .map(|job| {
-                let point = &points[&job.point_id];
-                JobDetail {
-                    point: point.idx,
-                    coded: point.coded.clone(),
-                    natural: point.natural.clone(),
-                    responses: responses
-                        .remove(&job.id)
-                        .map(ResponseValues::into_map)
-                        .unwrap_or_default(),
-                    job,
-                }
-            })
+            .map(|job| JobDetail::of(job, &points, &mut responses))
             .collect();
         let noise = crate::noise::summary(store, &study.name).await?;
         Ok(StudyDetail {
@@ -263,18 +274,13 @@ impl StudyDetail {
     /// Writes [`StudyDetail::json`] to `out` as `serde_json::to_writer_pretty` writes
     /// it, without building it: each job's object is made as it is written, so what is
     /// held does not grow with the jobs' text.
-    pub fn write_json(
-        &self,
-        project_dir: &Path,
-        out: impl std::io::Write,
-    ) -> serde_json::Result<()> {
-        serde_json::to_writer_pretty(
-            out,
-            &JsonOf {
-                detail: self,
-                project_dir,
-            },
-        )
+    pub fn write_json(&self, project_dir: &Path, out: impl Write) -> io::Result<()> {
+        let mut writer = JsonWriter::begin(out, &self.factors)?;
+        for detail in &self.jobs {
+            writer.job(detail)?;
+        }
+        writer.end(self, project_dir)?;
+        Ok(())
     }
 
     fn factor_names(&self) -> Vec<&str> {
@@ -282,11 +288,12 @@ impl StudyDetail {
     }
 
     fn study_json(&self, project_dir: &Path) -> Value {
-        let counts: BTreeMap<&str, usize> = self
-            .counts()
-            .iter()
-            .map(|(s, n)| (s.as_str(), *n))
-            .collect();
+        self.study_json_counted(project_dir, &self.counts())
+    }
+
+    /// The `study` object with `counts` as its jobs per state.
+    fn study_json_counted(&self, project_dir: &Path, counts: &BTreeMap<JobState, usize>) -> Value {
+        let counts: BTreeMap<&str, usize> = counts.iter().map(|(s, n)| (s.as_str(), *n)).collect();
         json!({
             "name": self.study.name,
             "solver": self.study.solver,
@@ -311,17 +318,18 @@ impl StudyDetail {
     }
 
     fn factors_json(&self) -> Value {
-        Value::Array(
-            self.factors
-                .iter()
-                .map(|f| {
-                    json!({
-                        "name": f.name, "min": f.min, "max": f.max, "unit": f.unit,
-                    })
-                })
-                .collect(),
-        )
+        factors_json(&self.factors)
     }
+}
+
+/// The `factors` array of the JSON.
+fn factors_json(factors: &[FactorRow]) -> Value {
+    Value::Array(
+        factors
+            .iter()
+            .map(|f| json!({"name": f.name, "min": f.min, "max": f.max, "unit": f.unit}))
+            .collect(),
+    )
 }
 
 /// One job of `orch status --json`.
@@ -347,45 +355,117 @@ fn job_json(d: &JobDetail, names: &[&str]) -> Value {
     })
 }
 
-/// [`StudyDetail::json`] as something serde writes, its jobs one at a time.
-struct JsonOf<'a> {
-    detail: &'a StudyDetail,
-    project_dir: &'a Path,
+/// Writes `orch status --json` as `serde_json::to_writer_pretty` writes
+/// [`StudyDetail::json`] (keys in sorted order, two-space indents), a job at a time:
+/// the jobs may come from memory ([`StudyDetail::write_json`]) or a page at a time from
+/// the store ([`write_json_paged`]). JSON strings hold no raw line breaks, so a value
+/// printed pretty on its own is placed at a depth by indenting its lines.
+struct JsonWriter<'a, W> {
+    out: W,
+    names: Vec<&'a str>,
+    counts: BTreeMap<JobState, usize>,
 }
 
-impl serde::Serialize for JsonOf<'_> {
-    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
-        use serde::ser::SerializeMap;
-        let detail = self.detail;
-        let names = detail.factor_names();
-        // The keys in the order serde_json's object (a sorted map) writes them.
-        let mut map = serializer.serialize_map(Some(6))?;
-        map.serialize_entry("factors", &detail.factors_json())?;
-        map.serialize_entry(
-            "jobs",
-            &Jobs {
-                detail,
-                names: &names,
-            },
+impl<'a, W: Write> JsonWriter<'a, W> {
+    /// Writes the object's opening, its `factors` and the opening of `jobs`.
+    fn begin(mut out: W, factors: &'a [FactorRow]) -> io::Result<Self> {
+        write!(
+            out,
+            "{{\n  \"factors\": {},\n  \"jobs\": [",
+            indented(&factors_json(factors), 2)
         )?;
-        map.serialize_entry("noise_design", &detail.noise_json())?;
-        map.serialize_entry("rounds", &detail.rounds_json(&names))?;
-        map.serialize_entry("schema", &JSON_SCHEMA)?;
-        map.serialize_entry("study", &detail.study_json(self.project_dir))?;
-        map.end()
+        Ok(JsonWriter {
+            out,
+            names: factors.iter().map(|f| f.name.as_str()).collect(),
+            counts: BTreeMap::new(),
+        })
+    }
+
+    /// Writes one element of `jobs`.
+    fn job(&mut self, detail: &JobDetail) -> io::Result<()> {
+        let separator = if self.counts.is_empty() { "\n" } else { ",\n" };
+        *self.counts.entry(detail.job.state).or_insert(0) += 1;
+        let job = indented(&job_json(detail, &self.names), 4);
+        write!(self.out, "{separator}    {job}")
+    }
+
+    /// Closes `jobs` and writes the rest of `head` (whose own jobs are not read: the
+    /// counts are those of the jobs written).
+    fn end(mut self, head: &StudyDetail, project_dir: &Path) -> io::Result<W> {
+        let close = if self.counts.is_empty() { "]" } else { "\n  ]" };
+        write!(
+            self.out,
+            "{close},\n  \"noise_design\": {},\n  \"rounds\": {},\n  \"schema\": {JSON_SCHEMA},\n  \"study\": {}\n}}",
+            indented(&head.noise_json(), 2),
+            indented(&head.rounds_json(&self.names), 2),
+            indented(&head.study_json_counted(project_dir, &self.counts), 2),
+        )?;
+        Ok(self.out)
     }
 }
 
-/// The `jobs` array of [`JsonOf`].
-struct Jobs<'a> {
-    detail: &'a StudyDetail,
-    names: &'a [&'a str],
+/// `value` printed pretty, its lines after the first indented by `depth` spaces.
+fn indented(value: &Value, depth: usize) -> String {
+    let text = serde_json::to_string_pretty(value).expect("a JSON value prints");
+    text.replace('\n', &format!("\n{:depth$}", ""))
 }
 
-impl serde::Serialize for Jobs<'_> {
-    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
-        serializer.collect_seq(self.detail.jobs.iter().map(|d| job_json(d, self.names)))
+/// Why `orch status --json` could not be written.
+#[derive(Debug, thiserror::Error)]
+pub enum WriteJsonError {
+    /// The store could not be read.
+    #[error(transparent)]
+    Store(#[from] StoreError),
+    /// The output could not be written.
+    #[error("cannot write the status JSON: {0}")]
+    Write(#[from] io::Error),
+}
+
+/// Writes `orch status --json` of `study` to `out`, the same text as
+/// [`StudyDetail::write_json`], reading its jobs a page at a time
+/// ([`Store::jobs_after`]) with their points and responses, so that memory does not
+/// grow with the study. Returns `out`.
+pub async fn write_json_paged<W: Write>(
+    store: &Store,
+    study: StudyRow,
+    project_dir: &Path,
+    out: W,
+) -> Result<W, WriteJsonError> {
+    // Every job's state is checked before a byte is written (one counting query): a
+    // store with a state this orch does not know is refused with nothing printed.
+    store.job_counts(study.id).await?;
+    let head = StudyDetail {
+        rounds: store.rounds(study.id).await?,
+        factors: store.factors(study.id).await?,
+        noise: crate::noise::summary(store, &study.name).await?,
+        driver: Driver::of(&study),
+        jobs: Vec::new(),
+        runs: BTreeMap::new(),
+        study,
+    };
+    let mut writer = JsonWriter::begin(out, &head.factors)?;
+    let mut after_id = i64::MIN;
+    loop {
+        let jobs = store.jobs_after(head.study.id, after_id).await?;
+        let last_page = jobs.len() < crate::store::ROWS_PER_PAGE as usize;
+        after_id = jobs.last().map_or(after_id, |job| job.id);
+        let job_ids: Vec<i64> = jobs.iter().map(|job| job.id).collect();
+        let point_ids: Vec<i64> = jobs.iter().map(|job| job.point_id).collect();
+        let mut responses = store.responses_of_jobs(&job_ids).await?;
+        let points: BTreeMap<i64, PointRow> = store
+            .points_by_id(&point_ids)
+            .await?
+            .into_iter()
+            .map(|p| (p.id, p))
+            .collect();
+        for job in jobs {
+            writer.job(&JobDetail::of(job, &points, &mut responses))?;
+        }
+        if last_page {
+            break;
+        }
     }
+    Ok(writer.end(&head, project_dir)?)
 }
 
 /// Values keyed by factor name.
@@ -1266,6 +1346,41 @@ mod tests {
             runs: BTreeMap::new(),
             noise: None,
         }
+    }
+
+    /// `status --json` read a page of jobs at a time is the JSON of the whole detail,
+    /// also past a page boundary with responses on either side of it.
+    #[tokio::test]
+    async fn the_json_read_a_page_at_a_time_is_the_json_of_the_whole() {
+        use crate::store::JobResults;
+        let levels = crate::store::ROWS_PER_PAGE as usize + 2;
+        let text = format!("name: big\nsolver: native\nfactors:\n  - {{name: outlet_diameter, min: 0.020, max: 0.028, unit: m}}\ndesign: {{type: full_factorial, levels: {levels}}}\n");
+        let dir = tempfile::tempdir().unwrap();
+        let store = Store::open(dir.path()).await.unwrap();
+        let study = crate::study::Study::from_text(Path::new("big.yaml"), &text, None).unwrap();
+        let id = store
+            .insert_study(&study, Path::new("big.yaml"), dir.path())
+            .await
+            .unwrap();
+        let jobs = store.jobs(id).await.unwrap();
+        for job in [&jobs[1], &jobs[levels - 2], &jobs[levels - 1]] {
+            store.mark_rendered(job.id).await.unwrap();
+            store.mark_running(job.id, "1:1", 0.0).await.unwrap();
+            let results = JobResults {
+                responses: vec![("exit_speed".into(), job.id as f64 * 1e-3)],
+                ..JobResults::default()
+            };
+            store.mark_succeeded(job.id, 0, &results).await.unwrap();
+        }
+        let row = store.study_by_name("big").await.unwrap().unwrap();
+        let project = Path::new("/p/.orch");
+        let paged = write_json_paged(&store, row.clone(), project, Vec::new())
+            .await
+            .unwrap();
+        let detail = StudyDetail::load(&store, row).await.unwrap();
+        let whole = serde_json::to_string_pretty(&detail.json(project)).unwrap();
+        assert_eq!(String::from_utf8(paged).unwrap(), whole);
+        assert_eq!(detail.counts()[&JobState::Succeeded], 3);
     }
 
     #[test]

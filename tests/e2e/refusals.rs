@@ -67,7 +67,7 @@ design: {type: full_factorial, levels: 2}
 ";
 
 #[test]
-fn a_job_state_this_orch_does_not_know_is_refused_by_status_and_resume() {
+fn a_job_state_this_orch_does_not_know_is_refused_by_status_export_and_resume() {
     let mut project = Project::new();
     project.fake_program("liggghts", "echo 'ERROR: refused on purpose'; exit 1");
     let file = project.write("damaged.yaml", DAMAGED);
@@ -93,6 +93,7 @@ fn a_job_state_this_orch_does_not_know_is_refused_by_status_and_resume() {
         &["status", "damaged", "--json"][..],
         &["status", "damaged"],
         &["status"],
+        &["export", "damaged"],
         &["resume", "damaged"],
     ] {
         let output = project.run(args);

@@ -419,26 +419,34 @@ pub trait JobLink {
     fn after_job_id(&self) -> Option<i64>;
 }
 
-impl JobLink for JobRow {
-    fn id(&self) -> i64 {
-        self.id
-    }
-    fn point_id(&self) -> i64 {
-        self.point_id
-    }
-    fn name(&self) -> &str {
-        &self.name
-    }
-    fn state(&self) -> JobState {
-        self.state
-    }
-    fn stage(&self) -> &str {
-        &self.stage
-    }
-    fn after_job_id(&self) -> Option<i64> {
-        self.after_job_id
-    }
+/// Implements [`JobLink`] for a row type whose fields have the trait's names.
+macro_rules! job_link_from_fields {
+    ($row:ty) => {
+        impl JobLink for $row {
+            fn id(&self) -> i64 {
+                self.id
+            }
+            fn point_id(&self) -> i64 {
+                self.point_id
+            }
+            fn name(&self) -> &str {
+                &self.name
+            }
+            fn state(&self) -> JobState {
+                self.state
+            }
+            fn stage(&self) -> &str {
+                &self.stage
+            }
+            fn after_job_id(&self) -> Option<i64> {
+                self.after_job_id
+            }
+        }
+    };
 }
+
+job_link_from_fields!(JobRow);
+job_link_from_fields!(JobLinkRow);
 
 /// A lean read of a row of `jobs`: only its [`JobLink`] fields, without the run
 /// directory, executor handle, times and error text, so that an analysis of a
@@ -462,27 +470,6 @@ pub struct JobLinkRow {
 impl JobLinkRow {
     /// The columns a [`JobLinkRow`] is read from, for a `SELECT`.
     pub const COLUMNS: &'static str = "id, point_id, name, state, stage, after_job_id";
-}
-
-impl JobLink for JobLinkRow {
-    fn id(&self) -> i64 {
-        self.id
-    }
-    fn point_id(&self) -> i64 {
-        self.point_id
-    }
-    fn name(&self) -> &str {
-        &self.name
-    }
-    fn state(&self) -> JobState {
-        self.state
-    }
-    fn stage(&self) -> &str {
-        &self.stage
-    }
-    fn after_job_id(&self) -> Option<i64> {
-        self.after_job_id
-    }
 }
 
 impl<'r> sqlx::FromRow<'r, SqliteRow> for JobLinkRow {

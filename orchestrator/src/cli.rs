@@ -13,7 +13,7 @@ use crate::exit_codes;
 use crate::output::{errln, out, outln};
 use crate::project;
 use crate::rounds;
-use crate::status::{self, StudyDetail};
+use crate::status;
 use crate::store::{JobState, Store, StudyRow, StudyState};
 use crate::study::{ExecutorKind, Stored, Study, StudyError, Template};
 
@@ -949,27 +949,27 @@ async fn show_status(
                 .await?
                 .map(|s| s.shown_responses())
                 .unwrap_or_default();
-            if as_json {
-                // Written as it is read, a page of jobs at a time: a study's JSON grows
-                // with its jobs.
-                use std::io::Write;
-                let stdout = std::io::BufWriter::new(std::io::stdout().lock());
-                let written: Result<(), status::WriteJsonError> = async {
+            // Written as it is read, a page of jobs at a time: a study's status grows
+            // with its jobs.
+            use std::io::Write;
+            let stdout = std::io::BufWriter::new(std::io::stdout().lock());
+            let written: Result<(), status::WriteStatusError> = async {
+                let mut stdout = if as_json {
                     let mut stdout =
                         status::write_json_paged(&store, row, &project, stdout).await?;
                     stdout.write_all(b"\n")?;
-                    Ok(stdout.flush()?)
-                }
-                .await;
-                match written {
-                    // The reader has gone (`| head`): nobody wants the rest.
-                    Err(status::WriteJsonError::Write(e))
-                        if e.kind() == std::io::ErrorKind::BrokenPipe => {}
-                    other => other?,
-                }
-            } else {
-                let detail = StudyDetail::load_shown(&store, row, &responses).await?;
-                out!("{}", detail.table(&responses))?;
+                    stdout
+                } else {
+                    status::write_table_paged(&store, row, &responses, stdout).await?
+                };
+                Ok(stdout.flush()?)
+            }
+            .await;
+            match written {
+                // The reader has gone (`| head`): nobody wants the rest.
+                Err(status::WriteStatusError::Write(e))
+                    if e.kind() == std::io::ErrorKind::BrokenPipe => {}
+                other => other?,
             }
         }
     }

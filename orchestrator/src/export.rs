@@ -7,12 +7,12 @@
 //! JSON (an array of objects keyed by the same headers). `--series` writes the time
 //! series in long form instead: one row per `(job, series, t, value)`.
 
-use std::collections::{BTreeMap, BTreeSet, HashMap};
+use std::collections::{BTreeSet, HashMap};
 use std::io::{self, Write};
 
 use serde_json::{Map, Value};
 
-use crate::store::{JobRow, PointRow, ResponseValues, SeriesPages, Store, StoreError, StudyRow};
+use crate::store::{JobPage, JobPages, ResponseValues, SeriesPages, Store, StoreError, StudyRow};
 use crate::study::Study;
 
 /// One cell of an exported table.
@@ -260,9 +260,8 @@ pub async fn runs_table(
 }
 
 /// Writes [`runs_table`] to `out` a row at a time, in the same text, without holding
-/// the table: the jobs are read a page at a time ([`Store::jobs_after`]) with their
-/// points and responses, so memory does not grow with the study. Returns the rows
-/// written.
+/// the table: the jobs are read a page at a time ([`JobPages`]) with their points and
+/// responses, so memory does not grow with the study. Returns the rows written.
 pub async fn write_runs(
     store: &Store,
     row: &StudyRow,
@@ -273,24 +272,21 @@ pub async fn write_runs(
     // Every job's state is checked before a byte is written (one counting query): a
     // store with a state this orch does not know is refused with nothing printed.
     store.job_counts(row.id).await?;
-    let first = store.jobs_after(row.id, i64::MIN).await?;
-    let mut runs = RunRows::of_jobs(store, row, study, first).await?;
+    let mut pages = JobPages::of(row.id);
+    let first = pages.next(store).await?.unwrap_or_default();
+    let mut runs = RunRows::of_page(store, row, study, first).await?;
     let mut writer = TableWriter::new(out, format, runs.headers.clone())?;
     loop {
         for k in 0..runs.len() {
             writer.row(&runs.row(k))?;
         }
-        let (Some(last), true) = (runs.jobs.last(), runs.len() == PAGE_LEN) else {
+        let Some(page) = pages.next(store).await? else {
             break;
         };
-        let page = store.jobs_after(row.id, last.id).await?;
-        runs = runs.with_jobs(store, page).await?;
+        runs.page = page;
     }
     Ok(writer.finish()?)
 }
-
-/// The jobs of a full page of [`Store::jobs_after`].
-const PAGE_LEN: usize = crate::store::ROWS_PER_PAGE as usize;
 
 /// What the rows of [`runs_table`] are made from, read from the store once (each
 /// table in one query); a row's cells are made when asked for, so a caller that
@@ -298,10 +294,8 @@ const PAGE_LEN: usize = crate::store::ROWS_PER_PAGE as usize;
 pub struct RunRows {
     /// The table's headers.
     pub headers: Vec<String>,
-    points: HashMap<i64, PointRow>,
-    responses: BTreeMap<i64, ResponseValues>,
     names: Vec<String>,
-    jobs: Vec<JobRow>,
+    page: JobPage,
 }
 
 impl RunRows {
@@ -311,10 +305,17 @@ impl RunRows {
         row: &StudyRow,
         study: Option<&Study>,
     ) -> Result<RunRows, StoreError> {
-        let responses = store.responses(row.id).await?;
-        let jobs = store.jobs(row.id).await?;
-        let points = store.points(row.id).await?;
-        RunRows::of(store, row, study, responses, jobs, points).await
+        let page = JobPage {
+            responses: store.responses(row.id).await?,
+            jobs: store.jobs(row.id).await?,
+            points: store
+                .points(row.id)
+                .await?
+                .into_iter()
+                .map(|p| (p.id, p))
+                .collect(),
+        };
+        RunRows::of(store, row, study, page).await
     }
 
     /// The rows of the jobs at the positions (in id order, ascending) that `choose`
@@ -328,19 +329,19 @@ impl RunRows {
     ) -> Result<(RunRows, usize), StoreError> {
         let total: usize = store.job_counts(row.id).await?.values().sum();
         let jobs = store.jobs_at(row.id, &choose(total)).await?;
-        Ok((RunRows::of_jobs(store, row, study, jobs).await?, total))
+        let page = JobPage::of_jobs(store, jobs).await?;
+        Ok((RunRows::of_page(store, row, study, page).await?, total))
     }
 
-    /// The rows of `jobs` (in id order), with the headers of every row of the
-    /// study: only their points and responses are read.
-    async fn of_jobs(
+    /// The rows of `page`'s jobs (in id order), with the headers of every row of the
+    /// study: the study's response names are read, not taken from the page.
+    async fn of_page(
         store: &Store,
         row: &StudyRow,
         study: Option<&Study>,
-        jobs: Vec<JobRow>,
+        page: JobPage,
     ) -> Result<RunRows, StoreError> {
-        let (responses, points) = RunRows::points_and_responses(store, &jobs).await?;
-        let mut runs = RunRows::of(store, row, study, responses, jobs, points).await?;
+        let mut runs = RunRows::of(store, row, study, page).await?;
         // The headers name every stored response, not only the chosen rows'.
         let stored: BTreeSet<String> = store.response_names(row.id).await?.into_iter().collect();
         let names = response_order(study, &stored);
@@ -354,40 +355,15 @@ impl RunRows {
         Ok(runs)
     }
 
-    /// The rows of `jobs` (in id order) with these rows' headers and response
-    /// columns: the next page of a table, without the study's names read again.
-    async fn with_jobs(self, store: &Store, jobs: Vec<JobRow>) -> Result<RunRows, StoreError> {
-        let (responses, points) = RunRows::points_and_responses(store, &jobs).await?;
-        Ok(RunRows {
-            points: points.into_iter().map(|p| (p.id, p)).collect(),
-            responses,
-            jobs,
-            ..self
-        })
-    }
-
-    /// The responses and points of `jobs`, each in one query.
-    async fn points_and_responses(
-        store: &Store,
-        jobs: &[JobRow],
-    ) -> Result<(BTreeMap<i64, ResponseValues>, Vec<PointRow>), StoreError> {
-        let job_ids: Vec<i64> = jobs.iter().map(|job| job.id).collect();
-        let point_ids: Vec<i64> = jobs.iter().map(|job| job.point_id).collect();
-        let responses = store.responses_of_jobs(&job_ids).await?;
-        Ok((responses, store.points_by_id(&point_ids).await?))
-    }
-
     async fn of(
         store: &Store,
         row: &StudyRow,
         study: Option<&Study>,
-        responses: BTreeMap<i64, ResponseValues>,
-        jobs: Vec<JobRow>,
-        points: Vec<PointRow>,
+        page: JobPage,
     ) -> Result<RunRows, StoreError> {
         let factors = store.factors(row.id).await?;
-        let points: HashMap<i64, _> = points.into_iter().map(|p| (p.id, p)).collect();
-        let stored: BTreeSet<String> = responses
+        let stored: BTreeSet<String> = page
+            .responses
             .values()
             .flat_map(|r| r.iter().map(|(name, _)| name.to_string()))
             .collect();
@@ -413,29 +389,27 @@ impl RunRows {
         );
         Ok(RunRows {
             headers,
-            points,
-            responses,
             names,
-            jobs,
+            page,
         })
     }
 
     /// The number of rows: one per job.
     pub fn len(&self) -> usize {
-        self.jobs.len()
+        self.page.jobs.len()
     }
 
     /// True for a study without jobs.
     pub fn is_empty(&self) -> bool {
-        self.jobs.is_empty()
+        self.page.jobs.is_empty()
     }
 
     /// Row `k` (the `k`-th job in id order), as long as the headers.
     pub fn row(&self, k: usize) -> Vec<Cell> {
-        let job = &self.jobs[k];
-        let point = &self.points[&job.point_id];
+        let job = &self.page.jobs[k];
+        let point = &self.page.points[&job.point_id];
         let empty = ResponseValues::default();
-        let values = self.responses.get(&job.id).unwrap_or(&empty);
+        let values = self.page.responses.get(&job.id).unwrap_or(&empty);
         let mut cells = vec![
             Cell::Text(job.name.clone()),
             Cell::Text(job.stage.clone()),
@@ -566,6 +540,7 @@ mod tests {
     #[tokio::test]
     async fn runs_written_page_by_page_are_the_whole_table() {
         use crate::store::JobResults;
+        const PAGE_LEN: usize = crate::store::ROWS_PER_PAGE as usize;
         let levels = PAGE_LEN + 3;
         let text = format!("name: big\nsolver: native\nfactors:\n  - {{name: outlet_diameter, min: 0.020, max: 0.028, unit: m}}\ndesign: {{type: full_factorial, levels: {levels}}}\n");
         let dir = tempfile::tempdir().unwrap();

@@ -15,7 +15,7 @@ use serde_json::{json, Value};
 
 use crate::executor::process;
 use crate::store::{
-    FactorRow, JobRow, JobState, PointRow, ResponseValues, Store, StoreError, StoredFit,
+    FactorRow, JobPages, JobRow, JobState, PointRow, ResponseValues, Store, StoreError, StoredFit,
     StoredRound, StudyRow, StudyState,
 };
 use crate::surfaces::{self, Run};
@@ -96,72 +96,102 @@ pub struct JobDetail {
 }
 
 impl JobDetail {
-    /// `job` with its point (from `points`, by id) and its responses, taken out of
-    /// `responses` (by job id).
-    fn of(
-        job: JobRow,
-        points: &BTreeMap<i64, PointRow>,
-        responses: &mut BTreeMap<i64, ResponseValues>,
-    ) -> JobDetail {
-        let point = &points[&job.point_id];
+    /// `job` with its design point and its responses.
+    fn of(job: JobRow, point: &PointRow, responses: ResponseValues) -> JobDetail {
         JobDetail {
             point: point.idx,
             coded: point.coded.clone(),
             natural: point.natural.clone(),
-            responses: responses
-                .remove(&job.id)
-                .map(ResponseValues::into_map)
-                .unwrap_or_default(),
+            responses: responses.into_map(),
             job,
         }
     }
 }
 
-impl StudyDetail {
-    /// Reads a study's detail from the store.
-    pub async fn load(store: &Store, study: StudyRow) -> Result<StudyDetail, StoreError> {
-        StudyDetail::load_with(store, study, None).await
+/// The columns of `orch status STUDY`'s job table: identity, state, the point's
+/// factors, the responses shown and the error.
+struct JobColumns<'a> {
+    factors: &'a [FactorRow],
+    shown: &'a [String],
+    /// Whether the `SCHEDULER` column is shown (some job has a scheduler state).
+    on_scheduler: bool,
+}
+
+impl JobColumns<'_> {
+    /// Where the `SCHEDULER` column is when it is shown.
+    const SCHEDULER: usize = 4;
+
+    fn header(&self) -> Vec<String> {
+        let mut header: Vec<String> = ["JOB", "STATE", "TRIES", "HANDLE"]
+            .iter()
+            .map(|s| s.to_string())
+            .collect();
+        if self.on_scheduler {
+            header.push("SCHEDULER".into());
+        }
+        header.extend(
+            self.factors
+                .iter()
+                .map(|f| format!("{} [{}]", f.name, f.unit)),
+        );
+        header.extend(self.shown.iter().cloned());
+        header.push("ERROR".into());
+        header
     }
 
-    /// [`StudyDetail::load`] for [`StudyDetail::table`] showing `shown`: of the
-    /// responses only those and the ones the rounds fitted are read (the jobs'
-    /// `responses` hold just those).
-    pub async fn load_shown(
-        store: &Store,
-        study: StudyRow,
-        shown: &[String],
-    ) -> Result<StudyDetail, StoreError> {
-        StudyDetail::load_with(store, study, Some(shown)).await
-    }
-
-    /// Every response when `shown` is `None`; otherwise `shown` and the fitted ones.
-    async fn load_with(
-        store: &Store,
-        study: StudyRow,
-        shown: Option<&[String]>,
-    ) -> Result<StudyDetail, StoreError> {
-        let rounds = store.rounds(study.id).await?;
-        let names = shown.map(|shown| {
-            let mut names = surfaces::fitted_names(&rounds);
-            names.extend(shown.iter().cloned());
-            names.sort();
-            names.dedup();
-            names
+    /// The row of `job` at the natural factor values `natural`, its responses looked
+    /// up by name in `response`.
+    fn row(
+        &self,
+        job: &JobRow,
+        natural: &[f64],
+        response: impl Fn(&str) -> Option<f64>,
+    ) -> Vec<String> {
+        let mut row = vec![
+            job.name.clone(),
+            job.state.to_string(),
+            job.attempts.to_string(),
+            job.executor_handle.clone().unwrap_or_else(|| "-".into()),
+        ];
+        if self.on_scheduler {
+            row.push(job.scheduler_state.clone().unwrap_or_else(|| "-".into()));
+        }
+        row.extend(natural.iter().map(|v| format!("{v:.6}")));
+        row.extend(self.shown.iter().map(|name| {
+            response(name)
+                .map(|v| format!("{v:.5}"))
+                .unwrap_or_else(|| "-".into())
+        }));
+        let error = job.error.clone().unwrap_or_default();
+        row.push(if error.chars().count() > 100 {
+            format!("{}…", error.chars().take(100).collect::<String>())
+        } else {
+            error
         });
+        row
+    }
+}
+
+impl StudyDetail {
+    /// Reads a study's detail from the store, every job in memory: what the tests
+    /// compare the paged writers ([`write_table_paged`], [`write_json_paged`]) with.
+    pub async fn load(store: &Store, study: StudyRow) -> Result<StudyDetail, StoreError> {
+        let rounds = store.rounds(study.id).await?;
         let factors = store.factors(study.id).await?;
         // The points, responses and jobs are read once: the design runs are made from
         // the same rows.
         let points = store.points(study.id).await?;
-        let mut responses = match &names {
-            Some(names) => store.responses_named(study.id, names).await?,
-            None => store.responses(study.id).await?,
-        };
+        let mut responses = store.responses(study.id).await?;
         let jobs = store.jobs(study.id).await?;
         let runs = surfaces::design_runs_from(store, study.id, &points, &jobs, &responses).await?;
         let points: BTreeMap<i64, _> = points.into_iter().map(|p| (p.id, p)).collect();
         let jobs = jobs
             .into_iter()
-            .map(|job| JobDetail::of(job, &points, &mut responses))
+            .map(|job| {
+                let values = responses.remove(&job.id).unwrap_or_default();
+                let point = &points[&job.point_id];
+                JobDetail::of(job, point, values)
+            })
             .collect();
         let noise = crate::noise::summary(store, &study.name).await?;
         Ok(StudyDetail {
@@ -187,51 +217,28 @@ impl StudyDetail {
     /// The per-job table, showing `responses` (the study's
     /// [`crate::study::Study::shown_responses`]).
     pub fn table(&self, responses: &[String]) -> String {
-        let shown = responses.to_vec();
-        let mut header: Vec<String> = ["JOB", "STATE", "TRIES", "HANDLE"]
-            .iter()
-            .map(|s| s.to_string())
-            .collect();
-        let on_scheduler = self.jobs.iter().any(|d| d.job.scheduler_state.is_some());
-        if on_scheduler {
-            header.push("SCHEDULER".into());
-        }
-        header.extend(
-            self.factors
-                .iter()
-                .map(|f| format!("{} [{}]", f.name, f.unit)),
-        );
-        header.extend(shown.iter().cloned());
-        header.push("ERROR".into());
-        let mut rows = vec![header];
-        for detail in &self.jobs {
-            let job = &detail.job;
-            let mut row = vec![
-                job.name.clone(),
-                job.state.to_string(),
-                job.attempts.to_string(),
-                job.executor_handle.clone().unwrap_or_else(|| "-".into()),
-            ];
-            if on_scheduler {
-                row.push(job.scheduler_state.clone().unwrap_or_else(|| "-".into()));
-            }
-            row.extend(detail.natural.iter().map(|v| format!("{v:.6}")));
-            row.extend(shown.iter().map(|name| {
-                detail
-                    .responses
-                    .get(name)
-                    .map(|v| format!("{v:.5}"))
-                    .unwrap_or_else(|| "-".into())
-            }));
-            let error = job.error.clone().unwrap_or_default();
-            row.push(if error.chars().count() > 100 {
-                format!("{}…", error.chars().take(100).collect::<String>())
-            } else {
-                error
-            });
-            rows.push(row);
-        }
-        let counts = self.counts();
+        let columns = JobColumns {
+            factors: &self.factors,
+            shown: responses,
+            on_scheduler: self.jobs.iter().any(|d| d.job.scheduler_state.is_some()),
+        };
+        let mut rows = vec![columns.header()];
+        rows.extend(self.jobs.iter().map(|detail| {
+            columns.row(&detail.job, &detail.natural, |name| {
+                detail.responses.get(name).copied()
+            })
+        }));
+        format!(
+            "{}{}{}",
+            self.headline(&self.counts()),
+            table(&rows),
+            self.tail()
+        )
+    }
+
+    /// The lines above the job table: the study, its jobs per state (`counts`) and
+    /// the note on a dead driver.
+    fn headline(&self, counts: &BTreeMap<JobState, usize>) -> String {
         let summary: Vec<String> = counts
             .iter()
             .map(|(state, n)| format!("{n} {state}"))
@@ -242,13 +249,19 @@ impl StudyDetail {
             .map(|note| format!("{note}\n"))
             .unwrap_or_default();
         format!(
-            "study {} ({}, {}): {} jobs: {}\n{note}{}{}{}",
+            "study {} ({}, {}): {} jobs: {}\n{note}",
             self.study.name,
             self.study.solver,
             self.study.state,
-            self.jobs.len(),
+            counts.values().sum::<usize>(),
             summary.join(", "),
-            table(&rows),
+        )
+    }
+
+    /// The lines below the job table: the rounds and the noise design.
+    fn tail(&self) -> String {
+        format!(
+            "{}{}",
             rounds_summary(&self.rounds, &self.factors, &self.runs),
             self.noise
                 .as_ref()
@@ -410,27 +423,93 @@ fn indented(value: &Value, depth: usize) -> String {
     text.replace('\n', &format!("\n{:depth$}", ""))
 }
 
-/// Why `orch status --json` could not be written.
+/// Why `orch status STUDY` (its table or `--json`) could not be written.
 #[derive(Debug, thiserror::Error)]
-pub enum WriteJsonError {
+pub enum WriteStatusError {
     /// The store could not be read.
     #[error(transparent)]
     Store(#[from] StoreError),
     /// The output could not be written.
-    #[error("cannot write the status JSON: {0}")]
+    #[error("cannot write the status: {0}")]
     Write(#[from] io::Error),
+}
+
+/// Writes `orch status STUDY` of `study` to `out`, showing the responses `shown`: the
+/// same text as [`StudyDetail::table`], read a page of jobs at a time ([`JobPages`])
+/// in two passes, the first for the columns' widths and the second to write the rows,
+/// so that memory does not grow with the study's jobs (the rounds' fits still read
+/// their design runs). Returns `out`.
+pub async fn write_table_paged<W: Write>(
+    store: &Store,
+    study: StudyRow,
+    shown: &[String],
+    mut out: W,
+) -> Result<W, WriteStatusError> {
+    // One counting query first: it refuses a job state this orch does not know
+    // before a byte is written, and gives the headline's figures.
+    let counts = store.job_counts(study.id).await?;
+    let rounds = store.rounds(study.id).await?;
+    let runs = if rounds.is_empty() {
+        BTreeMap::new()
+    } else {
+        surfaces::design_runs_named(store, study.id, &surfaces::fitted_names(&rounds)).await?
+    };
+    let head = StudyDetail {
+        factors: store.factors(study.id).await?,
+        noise: crate::noise::summary(store, &study.name).await?,
+        driver: Driver::of(&study),
+        jobs: Vec::new(),
+        rounds,
+        runs,
+        study,
+    };
+    // First pass: the widths, with the SCHEDULER column, dropped after it if no job
+    // has a scheduler state.
+    let mut columns = JobColumns {
+        factors: &head.factors,
+        shown,
+        on_scheduler: true,
+    };
+    let mut widths = Vec::new();
+    widen(&mut widths, &columns.header());
+    let mut on_scheduler = false;
+    let mut pages = JobPages::of(head.study.id);
+    while let Some(mut page) = pages.next(store).await? {
+        for (job, point, responses) in page.drain() {
+            on_scheduler |= job.scheduler_state.is_some();
+            widen(
+                &mut widths,
+                &columns.row(&job, &point.natural, |n| responses.get(n)),
+            );
+        }
+    }
+    if !on_scheduler {
+        widths.remove(JobColumns::SCHEDULER);
+        columns.on_scheduler = false;
+    }
+    out.write_all(head.headline(&counts).as_bytes())?;
+    out.write_all(aligned(&columns.header(), &widths).as_bytes())?;
+    let mut pages = JobPages::of(head.study.id);
+    while let Some(mut page) = pages.next(store).await? {
+        for (job, point, responses) in page.drain() {
+            let row = columns.row(&job, &point.natural, |n| responses.get(n));
+            out.write_all(aligned(&row, &widths).as_bytes())?;
+        }
+    }
+    out.write_all(head.tail().as_bytes())?;
+    Ok(out)
 }
 
 /// Writes `orch status --json` of `study` to `out`, the same text as
 /// [`StudyDetail::write_json`], reading its jobs a page at a time
-/// ([`Store::jobs_after`]) with their points and responses, so that memory does not
+/// ([`JobPages`]) with their points and responses, so that memory does not
 /// grow with the study. Returns `out`.
 pub async fn write_json_paged<W: Write>(
     store: &Store,
     study: StudyRow,
     project_dir: &Path,
     out: W,
-) -> Result<W, WriteJsonError> {
+) -> Result<W, WriteStatusError> {
     // Every job's state is checked before a byte is written (one counting query): a
     // store with a state this orch does not know is refused with nothing printed.
     store.job_counts(study.id).await?;
@@ -444,25 +523,10 @@ pub async fn write_json_paged<W: Write>(
         study,
     };
     let mut writer = JsonWriter::begin(out, &head.factors)?;
-    let mut after_id = i64::MIN;
-    loop {
-        let jobs = store.jobs_after(head.study.id, after_id).await?;
-        let last_page = jobs.len() < crate::store::ROWS_PER_PAGE as usize;
-        after_id = jobs.last().map_or(after_id, |job| job.id);
-        let job_ids: Vec<i64> = jobs.iter().map(|job| job.id).collect();
-        let point_ids: Vec<i64> = jobs.iter().map(|job| job.point_id).collect();
-        let mut responses = store.responses_of_jobs(&job_ids).await?;
-        let points: BTreeMap<i64, PointRow> = store
-            .points_by_id(&point_ids)
-            .await?
-            .into_iter()
-            .map(|p| (p.id, p))
-            .collect();
-        for job in jobs {
-            writer.job(&JobDetail::of(job, &points, &mut responses))?;
-        }
-        if last_page {
-            break;
+    let mut pages = JobPages::of(head.study.id);
+    while let Some(mut page) = pages.next(store).await? {
+        for (job, point, responses) in page.drain() {
+            writer.job(&JobDetail::of(job, point, responses))?;
         }
     }
     Ok(writer.end(&head, project_dir)?)
@@ -1065,27 +1129,37 @@ pub async fn overview(
 
 /// Left-aligned columns separated by two spaces.
 fn table(rows: &[Vec<String>]) -> String {
-    let columns = rows.iter().map(|r| r.len()).max().unwrap_or(0);
-    let widths: Vec<usize> = (0..columns)
-        .map(|c| {
-            rows.iter()
-                .filter_map(|r| r.get(c))
-                .map(|s| s.chars().count())
-                .max()
-                .unwrap_or(0)
-        })
-        .collect();
+    let mut widths = Vec::new();
+    for row in rows {
+        widen(&mut widths, row);
+    }
     let mut out = String::new();
     for row in rows {
-        let cells: Vec<String> = row
-            .iter()
-            .enumerate()
-            .map(|(c, cell)| format!("{cell:<width$}", width = widths[c]))
-            .collect();
-        out.push_str(cells.join("  ").trim_end());
-        out.push('\n');
+        out.push_str(&aligned(row, &widths));
     }
     out
+}
+
+/// Widens `widths` (characters per column) to fit `row`.
+fn widen(widths: &mut Vec<usize>, row: &[String]) {
+    if widths.len() < row.len() {
+        widths.resize(row.len(), 0);
+    }
+    for (width, cell) in widths.iter_mut().zip(row) {
+        *width = (*width).max(cell.chars().count());
+    }
+}
+
+/// `row` as one line of [`table`] with column `widths`.
+fn aligned(row: &[String], widths: &[usize]) -> String {
+    let cells: Vec<String> = row
+        .iter()
+        .zip(widths)
+        .map(|(cell, &width)| format!("{cell:<width$}"))
+        .collect();
+    let mut line = cells.join("  ").trim_end().to_string();
+    line.push('\n');
+    line
 }
 
 #[cfg(test)]
@@ -1348,10 +1422,11 @@ mod tests {
         }
     }
 
-    /// `status --json` read a page of jobs at a time is the JSON of the whole detail,
-    /// also past a page boundary with responses on either side of it.
-    #[tokio::test]
-    async fn the_json_read_a_page_at_a_time_is_the_json_of_the_whole() {
+    /// A store holding a study `big` of two more jobs than a page
+    /// ([`crate::store::ROWS_PER_PAGE`]): one succeeded on either side of the page
+    /// boundary (with a response), one failed with a long error, and, when
+    /// `on_scheduler`, one with a scheduler state.
+    async fn big_study(on_scheduler: bool) -> (tempfile::TempDir, Store, StudyRow) {
         use crate::store::JobResults;
         let levels = crate::store::ROWS_PER_PAGE as usize + 2;
         let text = format!("name: big\nsolver: native\nfactors:\n  - {{name: outlet_diameter, min: 0.020, max: 0.028, unit: m}}\ndesign: {{type: full_factorial, levels: {levels}}}\n");
@@ -1363,16 +1438,39 @@ mod tests {
             .await
             .unwrap();
         let jobs = store.jobs(id).await.unwrap();
-        for job in [&jobs[1], &jobs[levels - 2], &jobs[levels - 1]] {
+        // The widest value is on the second page: a table whose widths came from the
+        // first page alone would not line up.
+        for (job, value) in [(&jobs[1], 0.5), (&jobs[levels - 2], 1.5e6)] {
             store.mark_rendered(job.id).await.unwrap();
             store.mark_running(job.id, "1:1", 0.0).await.unwrap();
             let results = JobResults {
-                responses: vec![("exit_speed".into(), job.id as f64 * 1e-3)],
+                responses: vec![("exit_speed".into(), value)],
                 ..JobResults::default()
             };
             store.mark_succeeded(job.id, 0, &results).await.unwrap();
         }
+        let error = format!("solver exited with 1: {}", "a".repeat(150));
+        store
+            .mark_failed(jobs[levels - 1].id, Some(1), &error)
+            .await
+            .unwrap();
+        if on_scheduler {
+            store.mark_rendered(jobs[3].id).await.unwrap();
+            store.mark_submitted(jobs[3].id, "4242").await.unwrap();
+            store
+                .set_scheduler_state(jobs[3].id, "PENDING")
+                .await
+                .unwrap();
+        }
         let row = store.study_by_name("big").await.unwrap().unwrap();
+        (dir, store, row)
+    }
+
+    /// `status --json` read a page of jobs at a time is the JSON of the whole detail,
+    /// also past a page boundary with responses on either side of it.
+    #[tokio::test]
+    async fn the_json_read_a_page_at_a_time_is_the_json_of_the_whole() {
+        let (_dir, store, row) = big_study(false).await;
         let project = Path::new("/p/.orch");
         let paged = write_json_paged(&store, row.clone(), project, Vec::new())
             .await
@@ -1380,7 +1478,35 @@ mod tests {
         let detail = StudyDetail::load(&store, row).await.unwrap();
         let whole = serde_json::to_string_pretty(&detail.json(project)).unwrap();
         assert_eq!(String::from_utf8(paged).unwrap(), whole);
-        assert_eq!(detail.counts()[&JobState::Succeeded], 3);
+        assert_eq!(detail.counts()[&JobState::Succeeded], 2);
+    }
+
+    /// `orch status STUDY` written in two passes over pages of jobs is the table of the
+    /// whole detail: the same widths (the longest cell may be on any page), with and
+    /// without a SCHEDULER column, and a response that no job has shown as `-`.
+    #[tokio::test]
+    async fn the_table_read_a_page_at_a_time_is_the_table_of_the_whole() {
+        let shown = ["exit_speed".to_string(), "discharge_rate".to_string()];
+        for on_scheduler in [false, true] {
+            let (_dir, store, row) = big_study(on_scheduler).await;
+            let paged = write_table_paged(&store, row.clone(), &shown, Vec::new())
+                .await
+                .unwrap();
+            let paged = String::from_utf8(paged).unwrap();
+            let whole = StudyDetail::load(&store, row).await.unwrap().table(&shown);
+            assert_eq!(paged, whole, "on_scheduler {on_scheduler}");
+            let header = paged.lines().find(|l| l.starts_with("JOB")).unwrap();
+            assert_eq!(header.contains("SCHEDULER"), on_scheduler, "{header}");
+            assert!(paged.starts_with("study big (native, "), "{paged:.80}");
+            let rows = paged.lines().filter(|l| l.starts_with('p')).count();
+            assert_eq!(
+                rows,
+                crate::store::ROWS_PER_PAGE as usize + 2,
+                "{paged:.600}"
+            );
+            assert!(paged.contains("1 failed"), "{paged:.200}");
+            assert!(paged.contains(&format!("{}…", "a".repeat(78))));
+        }
     }
 
     #[test]

@@ -13,6 +13,7 @@
 //! of [`LOCK_FILE`], so two processes never both apply the same migration.
 
 mod comparisons;
+mod job_pages;
 mod rounds;
 mod rows;
 mod series;
@@ -26,6 +27,7 @@ use sqlx::sqlite::{SqliteConnectOptions, SqliteJournalMode, SqlitePoolOptions, S
 use sqlx::{Row, SqlitePool};
 
 pub use comparisons::{ComparisonRecord, ResponseRecord, SpeedRecord, StoredComparison};
+pub use job_pages::{JobPage, JobPages};
 pub use rounds::{
     CandidateScore, FitRecord, FrontPoint, LackOfFitRow, RoundRecord, Sensitivity, StoredFit,
     StoredRound,

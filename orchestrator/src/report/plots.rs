@@ -54,6 +54,26 @@ fn svg(width: u32, height: u32, draw: impl FnOnce(&Area) -> Drawn) -> String {
     }
 }
 
+/// `points` less those that land on the pixel of an earlier one, in order. A marker
+/// drawn again on the same pixel adds nothing a reader can see (only its antialiased
+/// edge gets a shade darker), so a scatter of 10^4 runs is drawn with one marker per
+/// pixel it covers: its SVG and the report stop growing with the runs, and an outlier
+/// is still drawn.
+fn one_per_pixel<X, Y>(
+    chart: &ChartContext<'_, SVGBackend<'_>, Cartesian2d<X, Y>>,
+    points: impl IntoIterator<Item = (f64, f64)>,
+) -> Vec<(f64, f64)>
+where
+    X: Ranged<ValueType = f64>,
+    Y: Ranged<ValueType = f64>,
+{
+    let mut taken = std::collections::HashSet::new();
+    points
+        .into_iter()
+        .filter(|point| taken.insert(chart.backend_coord(point)))
+        .collect()
+}
+
 /// `[lo, hi]` widened by 5 % on each side, and never empty.
 fn padded(lo: f64, hi: f64) -> std::ops::Range<f64> {
     let (lo, hi) = if lo.is_finite() && hi.is_finite() {
@@ -158,9 +178,9 @@ pub fn heatmap(
             )
         }))?;
         chart.draw_series(
-            points
-                .iter()
-                .map(|&(x, y)| Circle::new((x, y), 5, ShapeStyle::from(&WHITE).stroke_width(2))),
+            one_per_pixel(&chart, points.iter().copied())
+                .into_iter()
+                .map(|(x, y)| Circle::new((x, y), 5, ShapeStyle::from(&WHITE).stroke_width(2))),
         )?;
         if let Some((x, y)) = optimum {
             chart.draw_series(std::iter::once(Cross::new(
@@ -247,9 +267,9 @@ pub fn lines(
             }
         }
         chart.draw_series(
-            points
-                .iter()
-                .map(|&(x, y)| Circle::new((x, y), 4, BLACK.filled())),
+            one_per_pixel(&chart, points.iter().copied())
+                .into_iter()
+                .map(|(x, y)| Circle::new((x, y), 4, BLACK.filled())),
         )?;
         if lines.len() > 1 {
             chart
@@ -290,9 +310,9 @@ pub fn predicted_observed(title: &str, unit_label: &str, pairs: &[(f64, f64)]) -
             GREY.stroke_width(1),
         ))?;
         chart.draw_series(
-            pairs
-                .iter()
-                .map(|&(o, p)| Circle::new((o, p), 4, BLUE.filled())),
+            one_per_pixel(&chart, pairs.iter().copied())
+                .into_iter()
+                .map(|(o, p)| Circle::new((o, p), 4, BLUE.filled())),
         )?;
         Ok(())
     })
@@ -565,6 +585,30 @@ mod tests {
         let svg = front("front", "a", "b", &[(1.0, 2.0)], Some((1.0, 2.0)));
         assert!(svg.starts_with("<svg"), "{svg}");
         assert!(front("front", "a", "b", &[], None).starts_with("<svg"));
+    }
+
+    /// 10^4 runs along the diagonal of a 420-px figure cover a few hundred pixels:
+    /// each is drawn once, and an outlier among them is still drawn.
+    #[test]
+    fn a_scatter_draws_one_marker_per_pixel_and_keeps_an_outlier() {
+        let n = 10_000;
+        let mut pairs: Vec<(f64, f64)> = (0..n)
+            .map(|k| {
+                let o = k as f64 / n as f64;
+                (o, o + 1e-4 * (k % 7) as f64)
+            })
+            .collect();
+        let circles = |svg: &str| svg.matches("<circle").count();
+        let diagonal = circles(&predicted_observed("p", "[m]", &pairs));
+        assert!((100..1000).contains(&diagonal), "{diagonal} markers");
+        pairs.push((0.2, 0.9));
+        assert_eq!(
+            circles(&predicted_observed("p", "[m]", &pairs)),
+            diagonal + 1
+        );
+        // Points on distinct pixels are all drawn.
+        let few: Vec<(f64, f64)> = (0..20).map(|k| (k as f64, (k * k) as f64)).collect();
+        assert_eq!(circles(&predicted_observed("p", "[m]", &few)), 20);
     }
 
     #[test]

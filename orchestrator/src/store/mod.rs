@@ -715,12 +715,16 @@ impl Store {
             return Ok(Vec::new());
         }
         let positions = serde_json::to_string(positions).expect("JSON of integers");
+        // The window numbers ids only: SQLite holds what it numbers in a temporary
+        // table, and whole rows there would cost memory in proportion to the study.
         sqlx::query_as(
-            "SELECT * FROM (
-                 SELECT j.*, row_number() OVER (ORDER BY j.id) - 1 AS position
-                   FROM jobs j JOIN points p ON p.id = j.point_id
-                  WHERE j.study_id = ?1 AND (?2 IS NULL OR p.round = ?2)
-             ) WHERE position IN (SELECT value FROM json_each(?3)) ORDER BY id",
+            "SELECT * FROM jobs WHERE id IN (
+                 SELECT id FROM (
+                     SELECT j.id, row_number() OVER (ORDER BY j.id) - 1 AS position
+                       FROM jobs j JOIN points p ON p.id = j.point_id
+                      WHERE j.study_id = ?1 AND (?2 IS NULL OR p.round = ?2)
+                 ) WHERE position IN (SELECT value FROM json_each(?3))
+             ) ORDER BY id",
         )
         .bind(study_id)
         .bind(round)

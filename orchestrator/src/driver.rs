@@ -29,7 +29,7 @@
 //! jobs caught between render and launch are re-attached (Slurm, found by name) or
 //! rendered again.
 
-use std::collections::{BTreeMap, HashMap, HashSet};
+use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
@@ -1016,13 +1016,4 @@ pub fn failure_summary(run_dir: &Path, log_file: &str) -> String {
         }
     }
     "it wrote no output".to_string()
-}
-
-/// Job counts by state for one study, for status lines.
-pub fn counts(jobs: &[JobRow]) -> BTreeMap<JobState, usize> {
-    let mut counts = BTreeMap::new();
-    for job in jobs {
-        *counts.entry(job.state()).or_insert(0) += 1;
-    }
-    counts
 }

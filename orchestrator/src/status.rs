@@ -15,8 +15,8 @@ use serde_json::{json, Value};
 
 use crate::executor::process;
 use crate::store::{
-    FactorRow, JobPages, JobRow, JobState, PointRow, ResponseValues, Store, StoreError, StoredFit,
-    StoredRound, StudyRow, StudyState,
+    Extremes, FactorRow, JobExtents, JobPages, JobRow, JobState, PointRow, ResponseValues, Store,
+    StoreError, StoredFit, StoredRound, StudyRow, StudyState,
 };
 use crate::surfaces::{self, Run};
 use crate::verdict::{self, Verdict};
@@ -118,9 +118,6 @@ struct JobColumns<'a> {
 }
 
 impl JobColumns<'_> {
-    /// Where the `SCHEDULER` column is when it is shown.
-    const SCHEDULER: usize = 4;
-
     fn header(&self) -> Vec<String> {
         let mut header: Vec<String> = ["JOB", "STATE", "TRIES", "HANDLE"]
             .iter()
@@ -156,10 +153,10 @@ impl JobColumns<'_> {
         if self.on_scheduler {
             row.push(job.scheduler_state.clone().unwrap_or_else(|| "-".into()));
         }
-        row.extend(natural.iter().map(|v| format!("{v:.6}")));
+        row.extend(natural.iter().map(|&v| natural_cell(v)));
         row.extend(self.shown.iter().map(|name| {
             response(name)
-                .map(|v| format!("{v:.5}"))
+                .map(response_cell)
                 .unwrap_or_else(|| "-".into())
         }));
         let error = job.error.clone().unwrap_or_default();
@@ -170,6 +167,55 @@ impl JobColumns<'_> {
         });
         row
     }
+
+    /// The widest cell of each column but the last, of the jobs whose extents these
+    /// are (`counts`: their states): what [`JobColumns::row`] gives the longest texts
+    /// for. The last column (the error) needs no width: a line's end is trimmed.
+    fn widths(&self, extents: &JobExtents, counts: &BTreeMap<JobState, usize>) -> Vec<usize> {
+        let widest = |extremes: Option<&Extremes>, cell: fn(f64) -> String| {
+            extremes.map_or(0, |e| {
+                e.candidates()
+                    .map(|v| cell(v).chars().count())
+                    .max()
+                    .unwrap_or(0)
+            })
+        };
+        let mut widths = vec![
+            extents.name_chars,
+            counts.keys().map(|s| s.as_str().len()).max().unwrap_or(0),
+            extents.attempts.to_string().len(),
+            extents.handle_chars,
+        ];
+        if self.on_scheduler {
+            widths.push(extents.scheduler_chars.unwrap_or(0));
+        }
+        widths
+            .extend((0..self.factors.len()).map(|k| widest(extents.natural.get(k), natural_cell)));
+        widths.extend(
+            self.shown
+                .iter()
+                .map(|name| widest(extents.responses.get(name), response_cell).max(1)),
+        );
+        widths
+    }
+}
+
+/// `names` sorted, each once.
+fn distinct(names: &[String]) -> Vec<String> {
+    let mut names = names.to_vec();
+    names.sort();
+    names.dedup();
+    names
+}
+
+/// A natural factor value as `orch status STUDY` shows it.
+fn natural_cell(value: f64) -> String {
+    format!("{value:.6}")
+}
+
+/// A response value as `orch status STUDY` shows it.
+fn response_cell(value: f64) -> String {
+    format!("{value:.5}")
 }
 
 impl StudyDetail {
@@ -435,10 +481,10 @@ pub enum WriteStatusError {
 }
 
 /// Writes `orch status STUDY` of `study` to `out`, showing the responses `shown`: the
-/// same text as [`StudyDetail::table`], read a page of jobs at a time ([`JobPages`])
-/// in two passes, the first for the columns' widths and the second to write the rows,
-/// so that memory does not grow with the study's jobs (the rounds' fits still read
-/// their design runs). Returns `out`.
+/// same text as [`StudyDetail::table`], its rows read a page of jobs at a time
+/// ([`JobPages`]) and written as they are read, its columns' widths known beforehand
+/// from the jobs' extents ([`Store::job_extents`]), so that memory does not grow with
+/// the study's jobs (the rounds' lines still read their design runs). Returns `out`.
 pub async fn write_table_paged<W: Write>(
     store: &Store,
     study: StudyRow,
@@ -448,6 +494,7 @@ pub async fn write_table_paged<W: Write>(
     // One counting query first: it refuses a job state this orch does not know
     // before a byte is written, and gives the headline's figures.
     let counts = store.job_counts(study.id).await?;
+    let extents = store.job_extents(study.id, shown).await?;
     let rounds = store.rounds(study.id).await?;
     let runs = if rounds.is_empty() {
         BTreeMap::new()
@@ -463,33 +510,20 @@ pub async fn write_table_paged<W: Write>(
         runs,
         study,
     };
-    // First pass: the widths, with the SCHEDULER column, dropped after it if no job
-    // has a scheduler state.
-    let mut columns = JobColumns {
+    let columns = JobColumns {
         factors: &head.factors,
         shown,
-        on_scheduler: true,
+        on_scheduler: extents.scheduler_chars.is_some(),
     };
+    let header = columns.header();
     let mut widths = Vec::new();
-    widen(&mut widths, &columns.header());
-    let mut on_scheduler = false;
-    let mut pages = JobPages::of(head.study.id);
-    while let Some(mut page) = pages.next(store).await? {
-        for (job, point, responses) in page.drain() {
-            on_scheduler |= job.scheduler_state.is_some();
-            widen(
-                &mut widths,
-                &columns.row(&job, &point.natural, |n| responses.get(n)),
-            );
-        }
-    }
-    if !on_scheduler {
-        widths.remove(JobColumns::SCHEDULER);
-        columns.on_scheduler = false;
+    widen(&mut widths, &header);
+    for (width, cell) in widths.iter_mut().zip(columns.widths(&extents, &counts)) {
+        *width = (*width).max(cell);
     }
     out.write_all(head.headline(&counts).as_bytes())?;
-    out.write_all(aligned(&columns.header(), &widths).as_bytes())?;
-    let mut pages = JobPages::of(head.study.id);
+    out.write_all(aligned(&header, &widths).as_bytes())?;
+    let mut pages = JobPages::with_responses(head.study.id, &distinct(shown));
     while let Some(mut page) = pages.next(store).await? {
         for (job, point, responses) in page.drain() {
             let row = columns.row(&job, &point.natural, |n| responses.get(n));
@@ -1425,7 +1459,7 @@ mod tests {
     }
 
     /// A store holding a study `big` of two more jobs than a page
-    /// ([`crate::store::ROWS_PER_PAGE`]): one succeeded on either side of the page
+    /// ([`crate::store::ROWS_PER_PAGE`]): three succeeded on either side of the page
     /// boundary (with a response), one failed with a long error, and, when
     /// `on_scheduler`, one with a scheduler state.
     async fn big_study(on_scheduler: bool) -> (tempfile::TempDir, Store, StudyRow) {
@@ -1442,7 +1476,11 @@ mod tests {
         let jobs = store.jobs(id).await.unwrap();
         // The widest value is on the second page: a table whose widths came from the
         // first page alone would not line up.
-        for (job, value) in [(&jobs[1], 0.5), (&jobs[levels - 2], 1.5e6)] {
+        for (job, value) in [
+            (&jobs[1], 0.5),
+            (&jobs[2], -1234.5),
+            (&jobs[levels - 2], 1.5e6),
+        ] {
             store.mark_rendered(job.id).await.unwrap();
             store.mark_running(job.id, "1:1", 0.0).await.unwrap();
             let results = JobResults {
@@ -1480,12 +1518,13 @@ mod tests {
         let detail = StudyDetail::load(&store, row).await.unwrap();
         let whole = serde_json::to_string_pretty(&detail.json(project)).unwrap();
         assert_eq!(String::from_utf8(paged).unwrap(), whole);
-        assert_eq!(detail.counts()[&JobState::Succeeded], 2);
+        assert_eq!(detail.counts()[&JobState::Succeeded], 3);
     }
 
-    /// `orch status STUDY` written in two passes over pages of jobs is the table of the
-    /// whole detail: the same widths (the longest cell may be on any page), with and
-    /// without a SCHEDULER column, and a response that no job has shown as `-`.
+    /// `orch status STUDY` written a page of jobs at a time, its widths from the jobs'
+    /// extents, is the table of the whole detail: the same widths (the longest cell
+    /// may be on any page), with and without a SCHEDULER column, and a response that
+    /// no job has shown as `-`.
     #[tokio::test]
     async fn the_table_read_a_page_at_a_time_is_the_table_of_the_whole() {
         let shown = ["exit_speed".to_string(), "discharge_rate".to_string()];
@@ -1521,12 +1560,12 @@ mod tests {
         assert_eq!(study["jobs"], 1002);
         assert_eq!(
             study["counts"],
-            json!({"failed": 1, "pending": 999, "succeeded": 2})
+            json!({"failed": 1, "pending": 998, "succeeded": 3})
         );
         let text = overview(&stores, false).await.unwrap();
         let line = text.lines().find(|l| l.starts_with("big ")).unwrap();
         let cells: Vec<&str> = line.split_whitespace().collect();
-        assert_eq!(cells[3..9], ["1002", "999", "0", "2", "1", "0"], "{line}");
+        assert_eq!(cells[3..9], ["1002", "998", "0", "3", "1", "0"], "{line}");
     }
 
     #[test]

@@ -27,7 +27,7 @@ use sqlx::sqlite::{SqliteConnectOptions, SqliteJournalMode, SqlitePoolOptions, S
 use sqlx::{Row, SqlitePool};
 
 pub use comparisons::{ComparisonRecord, ResponseRecord, SpeedRecord, StoredComparison};
-pub use job_pages::{JobPage, JobPages};
+pub use job_pages::{Extremes, JobExtents, JobPage, JobPages};
 pub use rounds::{
     CandidateScore, FitRecord, FrontPoint, LackOfFitRow, RoundRecord, Sensitivity, StoredFit,
     StoredRound,
@@ -779,17 +779,31 @@ impl Store {
         names: &[String],
         seek: bool,
     ) -> Result<BTreeMap<i64, ResponseValues>, StoreError> {
+        self.responses_by_job_in(study_id, names, seek, i64::MIN, i64::MAX)
+            .await
+    }
+
+    /// [`Store::responses_by_job`] of the study's jobs with ids in `(after, up_to]`:
+    /// a page of jobs ([`JobPages`]) in one query.
+    async fn responses_by_job_in(
+        &self,
+        study_id: i64,
+        names: &[String],
+        seek: bool,
+        mut after: i64,
+        up_to: i64,
+    ) -> Result<BTreeMap<i64, ResponseValues>, StoreError> {
         let mut out: BTreeMap<i64, ResponseValues> = BTreeMap::new();
         if names.is_empty() {
             return Ok(out);
         }
         let sql = responses_by_job_sql(names.len(), seek);
-        let mut after = i64::MIN;
         loop {
             let mut query = sqlx::query(&sql)
                 .bind(study_id)
                 .bind(after)
-                .bind(ROWS_PER_PAGE);
+                .bind(ROWS_PER_PAGE)
+                .bind(up_to);
             for name in names {
                 query = query.bind(name);
             }
@@ -1344,17 +1358,17 @@ pub const ROWS_PER_PAGE: i64 = 1000;
 const PAGE_LEN: usize = ROWS_PER_PAGE as usize;
 
 /// The query of [`Store::responses`] for `n_names` response names: the study `?1`,
-/// the last job id of the page before `?2`, the page's length `?3`, then the names
-/// (`?4` on). One row per job with responses, with its value of each name or NULL, in
+/// the last job id of the page before `?2`, the page's length `?3`, the last job id
+/// wanted `?4`, then the names (`?5` on). One row per job with responses, with its value of each name or NULL, in
 /// job id order (the index `jobs_by_study`). A job has at most one value per name
 /// (the primary key), so `MAX` returns it as stored. With `seek` only the names'
 /// rows are visited (`r.name IN …`, through the primary key); without, every response
 /// row of the job (cheaper when the names are all there are).
 fn responses_by_job_sql(n_names: usize, seek: bool) -> String {
     let columns: Vec<String> = (0..n_names)
-        .map(|k| format!("MAX(CASE WHEN r.name = ?{} THEN r.value END)", k + 4))
+        .map(|k| format!("MAX(CASE WHEN r.name = ?{} THEN r.value END)", k + 5))
         .collect();
-    let names: Vec<String> = (0..n_names).map(|k| format!("?{}", k + 4)).collect();
+    let names: Vec<String> = (0..n_names).map(|k| format!("?{}", k + 5)).collect();
     let only = if seek {
         format!(" AND r.name IN ({})", names.join(", "))
     } else {
@@ -1362,7 +1376,7 @@ fn responses_by_job_sql(n_names: usize, seek: bool) -> String {
     };
     format!(
         "SELECT j.id, {} FROM jobs j JOIN responses r ON r.job_id = j.id{only}
-         WHERE j.study_id = ?1 AND j.id > ?2 GROUP BY j.id ORDER BY j.id LIMIT ?3",
+         WHERE j.study_id = ?1 AND j.id > ?2 AND j.id <= ?4 GROUP BY j.id ORDER BY j.id LIMIT ?3",
         columns.join(", "),
     )
 }

@@ -168,6 +168,16 @@ const BLOCK: usize = 64;
 /// Integration runs over chunks of this many particles.
 const CHUNK: usize = 512;
 
+/// What one chunk of particles' drift found: its largest squared displacement since
+/// the last rebuild (m²), and its particles (by index) that crossed the sensor plane
+/// or reached the sink, in index order. Empty lists do not allocate.
+#[derive(Debug, Default)]
+struct DriftOutcome {
+    moved_squared: Real,
+    crossings: Vec<(usize, Crossing)>,
+    sunk: Vec<usize>,
+}
+
 /// Half a velocity-Verlet kick of one sphere: `v += dt/2 F/m`, `ω += dt/2 τ/I` with
 /// `I = 2/5 m r²`.
 #[inline]
@@ -216,6 +226,8 @@ pub struct Simulation {
     leaving: Vec<bool>,
     leaving_count: usize,
     removed_mass_kg: Real,
+    /// What each chunk of the last drift found (scratch, kept for its allocation).
+    drift_outcomes: Vec<DriftOutcome>,
     particle_steps: u64,
     timers: StageTimers,
     inflows: Vec<InflowState>,
@@ -343,6 +355,7 @@ impl Simulation {
             leaving: vec![false; n],
             leaving_count: 0,
             removed_mass_kg: 0.0,
+            drift_outcomes: Vec::new(),
             particle_steps: 0,
             timers: StageTimers::default(),
             inflows: Vec::new(),
@@ -480,7 +493,10 @@ impl Simulation {
     }
 
     /// Half kick and drift of every particle; returns the largest displacement since
-    /// the last rebuild, m. Then records sensor crossings and sink arrivals.
+    /// the last rebuild, m. Each chunk also finds its particles that crossed the
+    /// sensor plane or reached the sink in this drift (rare), and those are recorded
+    /// after, in index order, as one sequential scan would: the same crossings and the
+    /// same sum of discharged mass, bit for bit, on any number of threads.
     fn kick_and_drift(&mut self, dt: Real) -> Real {
         let half = 0.5 * dt;
         let Particles {
@@ -491,18 +507,22 @@ impl Simulation {
             torque_n_m,
             mass_kg,
             radius_m,
+            id,
+            kind,
             ..
         } = &mut self.particles;
-        let (force_n, torque_n_m, mass_kg, radius_m) =
-            (&*force_n, &*torque_n_m, &*mass_kg, &*radius_m);
+        let (force_n, torque_n_m, mass_kg, radius_m, id, kind) =
+            (&*force_n, &*torque_n_m, &*mass_kg, &*radius_m, &*id, &*kind);
         let reference = &self.reference_positions;
-        let moved_squared = position_m
+        let (crossed, leaving) = (&self.crossed, &self.leaving);
+        let (sensor_z_m, sink_z_m, time) = (self.sensor_z_m, self.sink_z_m, self.time_s);
+        position_m
             .par_chunks_mut(CHUNK)
             .zip(velocity_m_s.par_chunks_mut(CHUNK))
             .zip(angular_velocity.par_chunks_mut(CHUNK))
             .enumerate()
             .map(|(c, ((xs, vs), ws))| {
-                let mut moved: Real = 0.0;
+                let mut outcome = DriftOutcome::default();
                 for (k, ((x, v), w)) in xs.iter_mut().zip(vs).zip(ws).enumerate() {
                     let i = c * CHUNK + k;
                     half_kick(
@@ -515,33 +535,44 @@ impl Simulation {
                         half,
                     );
                     *x += dt * *v;
-                    moved = moved.max((*x - reference[i]).norm_squared());
+                    outcome.moved_squared = outcome
+                        .moved_squared
+                        .max((*x - reference[i]).norm_squared());
+                    // z before the drift is z - dt vz.
+                    if let Some(plane) = sensor_z_m {
+                        let z_before = x.z - dt * v.z;
+                        if !crossed[i] && z_before > plane && x.z <= plane {
+                            let fraction = (z_before - plane) / (z_before - x.z);
+                            outcome.crossings.push((
+                                i,
+                                Crossing {
+                                    time_s: time + fraction * dt,
+                                    id: id[i],
+                                    kind: kind[i],
+                                    radius_m: radius_m[i],
+                                    mass_kg: mass_kg[i],
+                                    position_m: *x - (1.0 - fraction) * dt * *v,
+                                    velocity_m_s: *v,
+                                },
+                            ));
+                        }
+                    }
+                    if !leaving[i] && sink_z_m.is_some_and(|sink| x.z < sink) {
+                        outcome.sunk.push(i);
+                    }
                 }
-                moved
+                outcome
             })
-            .reduce(|| 0.0, Real::max);
-        // Sensor and sink: a cheap sequential scan; z before the drift is z - dt vz.
-        let time = self.time_s;
+            .collect_into_vec(&mut self.drift_outcomes);
         let recorded = self.crossings.len();
-        for i in 0..self.particles.len() {
-            let (x, v) = (self.particles.position_m[i], self.particles.velocity_m_s[i]);
-            if let Some(plane) = self.sensor_z_m {
-                let z_before = x.z - dt * v.z;
-                if !self.crossed[i] && z_before > plane && x.z <= plane {
-                    self.crossed[i] = true;
-                    let fraction = (z_before - plane) / (z_before - x.z);
-                    self.crossings.push(Crossing {
-                        time_s: time + fraction * dt,
-                        id: self.particles.id[i],
-                        kind: self.particles.kind[i],
-                        radius_m: self.particles.radius_m[i],
-                        mass_kg: self.particles.mass_kg[i],
-                        position_m: x - (1.0 - fraction) * dt * v,
-                        velocity_m_s: v,
-                    });
-                }
+        let mut moved_squared: Real = 0.0;
+        for outcome in self.drift_outcomes.drain(..) {
+            moved_squared = moved_squared.max(outcome.moved_squared);
+            for (i, crossing) in outcome.crossings {
+                self.crossed[i] = true;
+                self.crossings.push(crossing);
             }
-            if !self.leaving[i] && self.sink_z_m.is_some_and(|sink| x.z < sink) {
+            for i in outcome.sunk {
                 self.leaving[i] = true;
                 self.leaving_count += 1;
                 self.removed_mass_kg += self.particles.mass_kg[i];
@@ -552,20 +583,20 @@ impl Simulation {
         moved_squared.sqrt()
     }
 
-    /// Where the walls are, how fast they move and which exist at `time_s`.
+    /// Where the walls are, how fast they move and which exist at `time_s`: written
+    /// over the last step's values, so a step allocates nothing here.
     fn update_walls(&mut self) {
         let t = self.time_s;
-        self.mesh_offsets = self
-            .meshes
-            .iter()
-            .map(|m| m.motion.displacement_m(t))
-            .collect();
-        self.mesh_velocities = self
-            .meshes
-            .iter()
-            .map(|m| m.motion.velocity_m_s(t))
-            .collect();
-        self.mesh_present = self.meshes.iter().map(|m| m.is_present(t)).collect();
+        let meshes = &self.meshes;
+        self.mesh_offsets.clear();
+        self.mesh_offsets
+            .extend(meshes.iter().map(|m| m.motion.displacement_m(t)));
+        self.mesh_velocities.clear();
+        self.mesh_velocities
+            .extend(meshes.iter().map(|m| m.motion.velocity_m_s(t)));
+        self.mesh_present.clear();
+        self.mesh_present
+            .extend(meshes.iter().map(|m| m.is_present(t)));
     }
 
     fn needs_rebuild(&self, moved_m: Real) -> bool {

@@ -4,14 +4,10 @@ use orch_dem::insert::{insert, Region};
 use orch_dem::particles::Particles;
 use orch_dem::{Simulation, Vec3};
 
-use crate::{config, floor, material, sphere};
+use crate::{config, floor, material, on_threads, sphere};
 
 fn settle(threads: usize) -> Vec<Vec3> {
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .unwrap();
-    pool.install(|| {
+    on_threads(threads, || {
         let m = material(0.6, 0.5);
         let types = vec![sphere(0.002, m), sphere(0.001, m)];
         let mut p = Particles::default();
@@ -47,11 +43,7 @@ fn a_run_is_reproducible_and_independent_of_the_thread_count() {
 /// sink below it: what each step's chunks find is recorded in index order, so the
 /// crossings and the discharged mass are the same, bit for bit, on 1, 2 and 3 threads.
 fn fall_through(threads: usize) -> (Vec<orch_dem::Crossing>, f64, usize) {
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .unwrap();
-    pool.install(|| {
+    on_threads(threads, || {
         let m = material(0.6, 0.5);
         let types = vec![sphere(0.001, m), sphere(0.0007, m)];
         let mut p = Particles::default();

@@ -7,17 +7,13 @@ use orch_dem::insert::Region;
 use orch_dem::particles::Particles;
 use orch_dem::{Simulation, Vec3};
 
-use crate::{config, floor, material, sphere};
+use crate::{config, floor, material, on_threads, sphere};
 
 const RATE_KG_S: f64 = 0.1;
 const WINDOW_S: f64 = 0.1;
 
 fn feeding(threads: usize, check_overlaps: bool) -> (Simulation, Vec<Vec3>) {
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .unwrap();
-    pool.install(|| {
+    on_threads(threads, || {
         let m = material(0.6, 0.5);
         let types = vec![sphere(0.002, m), sphere(0.001, m)];
         let mut cfg = config(2e-5, m);

@@ -93,3 +93,12 @@ pub fn run_until(
     }
     panic!("the run did not finish within {max_steps} steps");
 }
+
+/// `run` on a pool of `threads` rayon threads: what the determinism checks compare.
+pub fn on_threads<T: Send>(threads: usize, run: impl FnOnce() -> T + Send) -> T {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap()
+        .install(run)
+}

@@ -251,6 +251,21 @@ impl StudyDetail {
         })
     }
 
+    /// The study's detail without its jobs and design runs: what the paged writers
+    /// ([`write_table_paged`], [`write_json_paged`]) write around the jobs they read
+    /// a page at a time.
+    async fn head(store: &Store, study: StudyRow) -> Result<StudyDetail, StoreError> {
+        Ok(StudyDetail {
+            rounds: store.rounds(study.id).await?,
+            factors: store.factors(study.id).await?,
+            noise: crate::noise::summary(store, &study.name).await?,
+            driver: Driver::of(&study),
+            jobs: Vec::new(),
+            runs: BTreeMap::new(),
+            study,
+        })
+    }
+
     /// Jobs per state.
     pub fn counts(&self) -> BTreeMap<JobState, usize> {
         let mut counts = BTreeMap::new();
@@ -495,21 +510,11 @@ pub async fn write_table_paged<W: Write>(
     // before a byte is written, and gives the headline's figures.
     let counts = store.job_counts(study.id).await?;
     let extents = store.job_extents(study.id, shown).await?;
-    let rounds = store.rounds(study.id).await?;
-    let runs = if rounds.is_empty() {
-        BTreeMap::new()
-    } else {
-        surfaces::design_runs_named(store, study.id, &surfaces::fitted_names(&rounds)).await?
-    };
-    let head = StudyDetail {
-        factors: store.factors(study.id).await?,
-        noise: crate::noise::summary(store, &study.name).await?,
-        driver: Driver::of(&study),
-        jobs: Vec::new(),
-        rounds,
-        runs,
-        study,
-    };
+    let mut head = StudyDetail::head(store, study).await?;
+    if !head.rounds.is_empty() {
+        let fitted = surfaces::fitted_names(&head.rounds);
+        head.runs = surfaces::design_runs_named(store, head.study.id, &fitted).await?;
+    }
     let columns = JobColumns {
         factors: &head.factors,
         shown,
@@ -547,15 +552,7 @@ pub async fn write_json_paged<W: Write>(
     // Every job's state is checked before a byte is written (one counting query): a
     // store with a state this orch does not know is refused with nothing printed.
     store.job_counts(study.id).await?;
-    let head = StudyDetail {
-        rounds: store.rounds(study.id).await?,
-        factors: store.factors(study.id).await?,
-        noise: crate::noise::summary(store, &study.name).await?,
-        driver: Driver::of(&study),
-        jobs: Vec::new(),
-        runs: BTreeMap::new(),
-        study,
-    };
+    let head = StudyDetail::head(store, study).await?;
     let mut writer = JsonWriter::begin(out, &head.factors)?;
     let mut pages = JobPages::of(head.study.id);
     while let Some(mut page) = pages.next(store).await? {

@@ -24,8 +24,17 @@ impl JobPage {
     /// `jobs` with their points and responses read from `store`.
     pub async fn of_jobs(store: &Store, jobs: Vec<JobRow>) -> Result<JobPage, StoreError> {
         let job_ids: Vec<i64> = jobs.iter().map(|job| job.id).collect();
-        let point_ids: Vec<i64> = jobs.iter().map(|job| job.point_id).collect();
         let responses = store.responses_of_jobs(&job_ids).await?;
+        JobPage::with_responses(store, jobs, responses).await
+    }
+
+    /// `jobs` with `responses` (theirs, by job id) and their points read from `store`.
+    async fn with_responses(
+        store: &Store,
+        jobs: Vec<JobRow>,
+        responses: BTreeMap<i64, ResponseValues>,
+    ) -> Result<JobPage, StoreError> {
+        let point_ids: Vec<i64> = jobs.iter().map(|job| job.point_id).collect();
         let points = store.points_by_id(&point_ids).await?;
         Ok(JobPage {
             jobs,
@@ -99,13 +108,7 @@ impl JobPages {
         let responses = store
             .responses_by_job_in(self.study_id, names, true, after, last)
             .await?;
-        let point_ids: Vec<i64> = jobs.iter().map(|job| job.point_id).collect();
-        let points = store.points_by_id(&point_ids).await?;
-        Ok(Some(JobPage {
-            jobs,
-            points: points.into_iter().map(|p| (p.id, p)).collect(),
-            responses,
-        }))
+        Ok(Some(JobPage::with_responses(store, jobs, responses).await?))
     }
 }
 

@@ -40,12 +40,20 @@ pub fn relative_ci95(results: &RunResults, stop: &StopWhen) -> Option<(f64, f64)
 }
 
 /// What the stop file says, and what status shows for a run it stopped.
+///
+/// The reached interval is written with as many decimals as it takes to read below
+/// the target (two, or more when two would round it up to the target: 7.9996 % is
+/// "7.9996 %", not "8.00 %, below the study's ± 8.00 %").
 pub fn stop_reason(stop: &StopWhen, value: f64, relative: f64) -> String {
+    let (reached, target) = (100.0 * relative, 100.0 * stop.relative_ci95);
+    let target_text = format!("{target:.2}");
+    let reached_text = (2..=8)
+        .map(|decimals| format!("{reached:.decimals$}"))
+        .find(|text| text.parse::<f64>().is_ok_and(|shown| shown < target))
+        .unwrap_or_else(|| format!("{reached:.2}"));
     format!(
-        "stopped early: {} = {value:.5} ± {:.2} % (95 %), below the study's ± {:.2} % (stop_when)",
+        "stopped early: {} = {value:.5} ± {reached_text} % (95 %), below the study's ± {target_text} % (stop_when)",
         stop.response,
-        100.0 * relative,
-        100.0 * stop.relative_ci95
     )
 }
 
@@ -190,5 +198,19 @@ mod tests {
             stop_reason(&stop(), 0.21, 0.0212),
             "stopped early: discharge_rate = 0.21000 ± 2.12 % (95 %), below the study's ± 3.00 % (stop_when)"
         );
+    }
+
+    #[test]
+    fn an_interval_just_below_the_target_is_not_rounded_up_to_it() {
+        // A LIGGGHTS run in CI stopped at 7.9996 % and said "± 8.00 %, below ± 8.00 %".
+        let eight = StopWhen {
+            relative_ci95: 0.08,
+            ..stop()
+        };
+        assert_eq!(
+            stop_reason(&eight, 0.10289, 0.079996),
+            "stopped early: discharge_rate = 0.10289 ± 7.9996 % (95 %), below the study's ± 8.00 % (stop_when)"
+        );
+        assert!(stop_reason(&eight, 0.1, 0.0799).contains("± 7.99 % (95 %)"));
     }
 }

@@ -132,13 +132,14 @@ pub enum Unstable {
 /// Wall time spent in each stage of the step, for profiles.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct StageTimers {
-    /// Kick, drift, sensor and sink.
+    /// The opening half kick and drift, sensor and sink (the closing half kick is
+    /// part of the gather).
     pub integrate: Duration,
     /// Neighbour list and wall candidate rebuilds.
     pub neighbours: Duration,
     /// Pair forces.
     pub pairs: Duration,
-    /// Gathering forces and wall contacts.
+    /// Gathering forces and wall contacts, and the closing half kick.
     pub gather_and_walls: Duration,
     /// Number of neighbour list rebuilds.
     pub rebuilds: u64,
@@ -176,6 +177,35 @@ struct DriftOutcome {
     moved_squared: Real,
     crossings: Vec<(usize, Crossing)>,
     sunk: Vec<usize>,
+}
+
+/// What the gather and closing half kick found: the deepest wall overlap (ratio to
+/// the radius, particle index) and the first particle (by index) past the speed
+/// bound, each the same on any number of threads.
+#[derive(Debug, Default)]
+struct Gathered {
+    worst_wall: Option<(Real, usize)>,
+    first_too_fast: Option<usize>,
+}
+
+impl Gathered {
+    /// The two chunks' findings as one: the deeper overlap (the lower index on a
+    /// tie) and the lower index past the bound.
+    fn merge(self, other: Self) -> Self {
+        let worst_wall = match (self.worst_wall, other.worst_wall) {
+            (Some(a), Some(b)) if b.0 > a.0 || (b.0 == a.0 && b.1 < a.1) => Some(b),
+            (Some(a), _) => Some(a),
+            (None, b) => b,
+        };
+        let first_too_fast = match (self.first_too_fast, other.first_too_fast) {
+            (Some(a), Some(b)) => Some(a.min(b)),
+            (a, b) => a.or(b),
+        };
+        Self {
+            worst_wall,
+            first_too_fast,
+        }
+    }
 }
 
 /// Half a velocity-Verlet kick of one sphere: `v += dt/2 F/m`, `ω += dt/2 τ/I` with
@@ -367,7 +397,7 @@ impl Simulation {
         };
         simulation.update_walls();
         simulation.rebuild();
-        simulation.compute_forces()?;
+        simulation.forces_and_kick(None)?;
         Ok(simulation)
     }
 
@@ -485,11 +515,7 @@ impl Simulation {
             self.rebuild();
             self.timers.neighbours += started.elapsed();
         }
-        self.compute_forces()?;
-        let started = Instant::now();
-        let result = self.kick(dt);
-        self.timers.integrate += started.elapsed();
-        result
+        self.forces_and_kick(Some(dt))
     }
 
     /// Half kick and drift of every particle; returns the largest displacement since
@@ -679,13 +705,16 @@ impl Simulation {
         self.timers.rebuilds += 1;
     }
 
-    fn compute_forces(&mut self) -> Result<(), Unstable> {
+    /// The step's forces, then (with `Some(dt)`) its closing half kick, fused into
+    /// the gather: each particle is kicked as soon as its force is summed, which no
+    /// other particle's gather reads, so the result is that of a separate pass, with
+    /// one pass over the particles fewer. A pair overlap past the bound stops before
+    /// the gather; a wall overlap or a speed past its bound is reported after it (the
+    /// state is then that of a failed step, not to be stepped on).
+    fn forces_and_kick(&mut self, kick_dt_s: Option<Real>) -> Result<(), Unstable> {
         let started = Instant::now();
         let worst_pair = self.pair_forces();
         self.timers.pairs += started.elapsed();
-        let started = Instant::now();
-        let worst_wall = self.gather();
-        self.timers.gather_and_walls += started.elapsed();
         let bound = self.config.max_overlap_ratio;
         if let Some((ratio, i, j)) = worst_pair {
             if ratio > bound {
@@ -696,12 +725,25 @@ impl Simulation {
                 ));
             }
         }
-        if let Some((ratio, i)) = worst_wall {
+        let started = Instant::now();
+        let gathered = self.gather_and_kick(kick_dt_s);
+        self.timers.gather_and_walls += started.elapsed();
+        if let Some((ratio, i)) = gathered.worst_wall {
             if ratio > bound {
                 return Err(self.overlap_error(i, "a wall".to_string(), ratio));
             }
         }
-        Ok(())
+        match gathered.first_too_fast {
+            None => Ok(()),
+            Some(i) => Err(Unstable::Speed {
+                step: self.step,
+                time_s: self.time_s,
+                id: self.particles.id[i],
+                speed_m_s: self.particles.velocity_m_s[i].norm(),
+                bound_m_s: self.config.max_speed_m_s,
+                timestep_s: self.config.timestep_s,
+            }),
+        }
     }
 
     fn overlap_error(&self, i: usize, other: String, ratio: Real) -> Unstable {
@@ -855,9 +897,10 @@ impl Simulation {
             })
     }
 
-    /// Per particle: gravity, pair forces, wall contacts. Returns the deepest wall
-    /// overlap (ratio, particle index).
-    fn gather(&mut self) -> Option<(Real, usize)> {
+    /// Per particle: gravity, pair forces, wall contacts, then (with `Some(dt)`) the
+    /// half kick `v += dt/2 F/m` with the force just summed. Returns the deepest wall
+    /// overlap and the first particle past the speed bound.
+    fn gather_and_kick(&mut self, kick_dt_s: Option<Real>) -> Gathered {
         let walls = WallState {
             meshes: &self.meshes,
             offsets_m: &self.mesh_offsets,
@@ -874,139 +917,97 @@ impl Simulation {
         let loads = &self.pair_loads;
         let candidates = &self.wall_candidates;
         self.impact_energy_j.resize(self.particles.len(), 0.0);
+        let bound_squared = self.config.max_speed_m_s.powi(2);
+        let half = kick_dt_s.map(|dt| 0.5 * dt);
         let p = &mut self.particles;
-        let (position, velocity, spin, mass, radius, kind) = (
-            &p.position_m,
-            &p.velocity_m_s,
-            &p.angular_velocity,
-            &p.mass_kg,
-            &p.radius_m,
-            &p.kind,
-        );
-        let worst = p
+        let (position, mass, radius, kind) = (&p.position_m, &p.mass_kg, &p.radius_m, &p.kind);
+        let gathered = p
             .force_n
             .par_chunks_mut(CHUNK)
             .zip(p.torque_n_m.par_chunks_mut(CHUNK))
+            .zip(p.velocity_m_s.par_chunks_mut(CHUNK))
+            .zip(p.angular_velocity.par_chunks_mut(CHUNK))
             .zip(self.impact_energy_j.par_chunks_mut(CHUNK))
             .zip(self.wall_contacts.chunks_mut(CHUNK))
             .enumerate()
-            .filter_map(|(c, (((forces, torques), impacts), mut lists))| {
-                let mut worst: Option<(Real, usize)> = None;
-                let first = c * CHUNK;
-                for (k, ((force, torque), impact)) in
-                    forces.iter_mut().zip(torques).zip(impacts).enumerate()
-                {
-                    let i = first + k;
-                    // The pair pass left this particle's own row sum here.
-                    let mut f = *force;
-                    let mut t = *torque;
-                    for &k in &pairs.reverse_pair
-                        [pairs.reverse_start[i] as usize..pairs.reverse_start[i + 1] as usize]
+            .map(
+                |(c, (((((forces, torques), velocities), spins), impacts), mut lists))| {
+                    let mut worst: Option<(Real, usize)> = None;
+                    let mut first_too_fast = None;
+                    let first = c * CHUNK;
+                    for (k, ((((force, torque), velocity), spin), impact)) in forces
+                        .iter_mut()
+                        .zip(torques)
+                        .zip(velocities)
+                        .zip(spins)
+                        .zip(impacts)
+                        .enumerate()
                     {
-                        if pairs.in_contact[k as usize] {
-                            let load = &loads[k as usize];
-                            f -= load.force_on_first;
-                            t += load.torque_on_second;
+                        let i = first + k;
+                        // The pair pass left this particle's own row sum here.
+                        let mut f = *force;
+                        let mut t = *torque;
+                        for &k in &pairs.reverse_pair
+                            [pairs.reverse_start[i] as usize..pairs.reverse_start[i + 1] as usize]
+                        {
+                            if pairs.in_contact[k as usize] {
+                                let load = &loads[k as usize];
+                                f -= load.force_on_first;
+                                t += load.torque_on_second;
+                            }
                         }
-                    }
-                    let near = candidates.of(i);
-                    let wall = if near.is_empty() {
-                        WallLoad::default()
-                    } else {
-                        // Particles with candidates hold the chunk's lists in order.
-                        let (contacts, rest) = std::mem::take(&mut lists)
-                            .split_first_mut()
-                            .expect("one wall contact list per particle with candidates");
-                        lists = rest;
-                        let particle = ParticleView {
-                            position_m: position[i],
-                            velocity_m_s: velocity[i],
-                            angular_velocity: spin[i],
-                            radius_m: radius[i],
-                            mass_kg: mass[i],
-                            kind: kind[i] as usize,
+                        let near = candidates.of(i);
+                        let wall = if near.is_empty() {
+                            WallLoad::default()
+                        } else {
+                            // Particles with candidates hold the chunk's lists in order.
+                            let (contacts, rest) = std::mem::take(&mut lists)
+                                .split_first_mut()
+                                .expect("one wall contact list per particle with candidates");
+                            lists = rest;
+                            let particle = ParticleView {
+                                position_m: position[i],
+                                velocity_m_s: *velocity,
+                                angular_velocity: *spin,
+                                radius_m: radius[i],
+                                mass_kg: mass[i],
+                                kind: kind[i] as usize,
+                            };
+                            wall_load(&walls, near, &particle, contacts)
                         };
-                        wall_load(&walls, near, &particle, contacts)
-                    };
-                    let drag = air.map_or(Vec3::zeros(), |a| {
-                        match air_field.and_then(|field| field.velocity_at(position[i])) {
-                            Some(wind) => a.drag_in_n(wind, radius[i], velocity[i]),
-                            None => a.drag_n(radius[i], velocity[i]),
+                        let drag = air.map_or(Vec3::zeros(), |a| {
+                            match air_field.and_then(|field| field.velocity_at(position[i])) {
+                                Some(wind) => a.drag_in_n(wind, radius[i], *velocity),
+                                None => a.drag_n(radius[i], *velocity),
+                            }
+                        });
+                        *force = f + wall.force_n + mass[i] * gravity + drag;
+                        *torque = t + wall.torque_n_m;
+                        *impact = wall.impact_energy_j;
+                        if wall.worst_overlap_ratio > 0.0
+                            && worst.is_none_or(|(w, _)| wall.worst_overlap_ratio > w)
+                        {
+                            worst = Some((wall.worst_overlap_ratio, i));
                         }
-                    });
-                    *force = f + wall.force_n + mass[i] * gravity + drag;
-                    *torque = t + wall.torque_n_m;
-                    *impact = wall.impact_energy_j;
-                    if wall.worst_overlap_ratio > 0.0
-                        && worst.is_none_or(|(w, _)| wall.worst_overlap_ratio > w)
-                    {
-                        worst = Some((wall.worst_overlap_ratio, i));
+                        if let Some(half) = half {
+                            half_kick(velocity, spin, *force, *torque, mass[i], radius[i], half);
+                            let speed_squared = velocity.norm_squared();
+                            if first_too_fast.is_none()
+                                && (speed_squared.is_nan() || speed_squared > bound_squared)
+                            {
+                                first_too_fast = Some(i);
+                            }
+                        }
                     }
-                }
-                worst
-            })
-            .reduce_with(|a, b| {
-                if b.0 > a.0 || (b.0 == a.0 && b.1 < a.1) {
-                    b
-                } else {
-                    a
-                }
-            });
+                    Gathered {
+                        worst_wall: worst,
+                        first_too_fast,
+                    }
+                },
+            )
+            .reduce(Gathered::default, Gathered::merge);
         // In index order, whatever the number of threads.
         self.wall_impact_energy_j += self.impact_energy_j.iter().sum::<Real>();
-        worst
-    }
-
-    fn kick(&mut self, dt: Real) -> Result<(), Unstable> {
-        let half = 0.5 * dt;
-        let bound_squared = self.config.max_speed_m_s.powi(2);
-        let Particles {
-            velocity_m_s,
-            angular_velocity,
-            force_n,
-            torque_n_m,
-            mass_kg,
-            radius_m,
-            ..
-        } = &mut self.particles;
-        let (force_n, torque_n_m, mass_kg, radius_m) =
-            (&*force_n, &*torque_n_m, &*mass_kg, &*radius_m);
-        let too_fast = velocity_m_s
-            .par_chunks_mut(CHUNK)
-            .zip(angular_velocity.par_chunks_mut(CHUNK))
-            .enumerate()
-            .filter_map(|(c, (vs, ws))| {
-                let mut first = None;
-                for (k, (v, w)) in vs.iter_mut().zip(ws).enumerate() {
-                    let i = c * CHUNK + k;
-                    half_kick(
-                        v,
-                        w,
-                        force_n[i],
-                        torque_n_m[i],
-                        mass_kg[i],
-                        radius_m[i],
-                        half,
-                    );
-                    let speed_squared = v.norm_squared();
-                    if first.is_none() && (speed_squared.is_nan() || speed_squared > bound_squared)
-                    {
-                        first = Some(i);
-                    }
-                }
-                first
-            })
-            .min();
-        match too_fast {
-            None => Ok(()),
-            Some(i) => Err(Unstable::Speed {
-                step: self.step,
-                time_s: self.time_s,
-                id: self.particles.id[i],
-                speed_m_s: self.particles.velocity_m_s[i].norm(),
-                bound_m_s: self.config.max_speed_m_s,
-                timestep_s: self.config.timestep_s,
-            }),
-        }
+        gathered
     }
 }

@@ -239,7 +239,7 @@ pub fn run(case_path: &Path, log_path: &Path, threads: usize) -> anyhow::Result<
 pub fn profile(timers: &StageTimers, total: Duration) -> String {
     let share = |d: Duration| 100.0 * d.as_secs_f64() / total.as_secs_f64().max(1e-12);
     format!(
-        "Stage times: pair forces {:.1} %, walls and gather {:.1} %, neighbour rebuilds {:.1} % ({} rebuilds), integration {:.1} %",
+        "Stage times: pair forces {:.1} %, walls, gather and closing kick {:.1} %, neighbour rebuilds {:.1} % ({} rebuilds), integration {:.1} %",
         share(timers.pairs),
         share(timers.gather_and_walls),
         share(timers.neighbours),

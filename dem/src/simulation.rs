@@ -179,6 +179,13 @@ struct DriftOutcome {
     sunk: Vec<usize>,
 }
 
+/// Whether overlap ratio `ratio` at particle `i` beats `other_ratio` at `other_i`
+/// as the step's deepest: deeper, or as deep at a lower index, so two chunks' findings
+/// merge to what one scan in index order finds.
+fn deeper(ratio: Real, i: usize, other_ratio: Real, other_i: usize) -> bool {
+    ratio > other_ratio || (ratio == other_ratio && i < other_i)
+}
+
 /// What the gather and closing half kick found: the deepest wall overlap (ratio to
 /// the radius, particle index) and the first particle (by index) past the speed
 /// bound, each the same on any number of threads.
@@ -193,7 +200,7 @@ impl Gathered {
     /// tie) and the lower index past the bound.
     fn merge(self, other: Self) -> Self {
         let worst_wall = match (self.worst_wall, other.worst_wall) {
-            (Some(a), Some(b)) if b.0 > a.0 || (b.0 == a.0 && b.1 < a.1) => Some(b),
+            (Some(a), Some(b)) if deeper(b.0, b.1, a.0, a.1) => Some(b),
             (Some(a), _) => Some(a),
             (None, b) => b,
         };
@@ -888,13 +895,7 @@ impl Simulation {
                     worst.map(|w| (w.overlap_m / w.smaller_m, w.i, w.j))
                 },
             )
-            .reduce_with(|a, b| {
-                if b.0 > a.0 || (b.0 == a.0 && b.1 < a.1) {
-                    b
-                } else {
-                    a
-                }
-            })
+            .reduce_with(|a, b| if deeper(b.0, b.1, a.0, a.1) { b } else { a })
     }
 
     /// Per particle: gravity, pair forces, wall contacts, then (with `Some(dt)`) the

@@ -39,18 +39,25 @@ pub fn relative_ci95(results: &RunResults, stop: &StopWhen) -> Option<(f64, f64)
         .then(|| (value, (half_width / value).abs()))
 }
 
+/// `x` with the fewest decimals, from two to eight, whose written value `reads`
+/// accepts (eight when none does).
+fn with_decimals_until(x: f64, reads: impl Fn(f64) -> bool) -> String {
+    (2..=8)
+        .map(|decimals| format!("{x:.decimals$}"))
+        .find(|text| text.parse().is_ok_and(&reads))
+        .unwrap_or_else(|| format!("{x:.8}"))
+}
+
 /// What the stop file says, and what status shows for a run it stopped.
 ///
-/// The reached interval is written with as many decimals as it takes to read below
-/// the target (two, or more when two would round it up to the target: 7.9996 % is
-/// "7.9996 %", not "8.00 %, below the study's ± 8.00 %").
+/// Both percentages are written with as many decimals as it takes to read true: the
+/// target as given (8.125 % is "8.125 %"), the reached interval below the target as
+/// written (7.9996 % is "7.9996 %", not "8.00 %, below the study's ± 8.00 %").
 pub fn stop_reason(stop: &StopWhen, value: f64, relative: f64) -> String {
     let (reached, target) = (100.0 * relative, 100.0 * stop.relative_ci95);
-    let target_text = format!("{target:.2}");
-    let reached_text = (2..=8)
-        .map(|decimals| format!("{reached:.decimals$}"))
-        .find(|text| text.parse::<f64>().is_ok_and(|shown| shown < target))
-        .unwrap_or_else(|| format!("{reached:.2}"));
+    let target_text = with_decimals_until(target, |shown| (shown - target).abs() <= 1e-9);
+    let target_shown: f64 = target_text.parse().unwrap_or(target);
+    let reached_text = with_decimals_until(reached, |shown| shown < target_shown);
     format!(
         "stopped early: {} = {value:.5} ± {reached_text} % (95 %), below the study's ± {target_text} % (stop_when)",
         stop.response,
@@ -212,5 +219,16 @@ mod tests {
             "stopped early: discharge_rate = 0.10289 ± 7.9996 % (95 %), below the study's ± 8.00 % (stop_when)"
         );
         assert!(stop_reason(&eight, 0.1, 0.0799).contains("± 7.99 % (95 %)"));
+        // A target with more than two decimals is written as given (two would make
+        // it 8.13 or 8.12), and the reached interval below it as written.
+        let finer = StopWhen {
+            relative_ci95: 0.08125,
+            ..stop()
+        };
+        let reason = stop_reason(&finer, 0.1, 0.08124);
+        assert!(
+            reason.contains("± 8.12 % (95 %), below the study's ± 8.125 %"),
+            "{reason}"
+        );
     }
 }

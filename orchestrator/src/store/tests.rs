@@ -601,3 +601,18 @@ async fn a_study_s_job_links_are_its_jobs_link_fields() {
     }
     assert_eq!(lean[0].state, JobState::Failed);
 }
+
+#[tokio::test]
+async fn every_connection_keeps_the_small_page_cache() {
+    let (_dir, store, _) = store_with_study().await;
+    // Two connections held at once: the second is opened for this, not reused.
+    let mut first = store.pool.acquire().await.unwrap();
+    let mut second = store.pool.acquire().await.unwrap();
+    for connection in [&mut first, &mut second] {
+        let (kib,): (i64,) = sqlx::query_as("PRAGMA cache_size")
+            .fetch_one(&mut **connection)
+            .await
+            .unwrap();
+        assert_eq!(kib.to_string(), CACHE_SIZE_KIB);
+    }
+}

@@ -642,6 +642,18 @@ impl Simulation {
         moved_m + wall_moved > 0.5 * self.config.skin_m
     }
 
+    /// How much closer a particle and a wall can come before the next rebuild, m.
+    ///
+    /// A rebuild is due once a particle's displacement plus a wall's exceeds half the
+    /// skin, and walls only translate; so a triangle farther than radius plus half the
+    /// skin at a rebuild cannot touch the particle before the next one. Listing only
+    /// those within that reach (not the full skin, as for pairs, where both ends move)
+    /// drops candidates that could never touch, and the forces stay the same, bit for
+    /// bit. The 0.1 % over half the skin absorbs rounding in the distances.
+    fn wall_margin_m(&self) -> Real {
+        0.5 * self.config.skin_m * 1.001
+    }
+
     /// Removes particles past the sink, inserts the inflows' due batches, sorts the
     /// particles along the curve, rebuilds the pair list and wall candidates.
     fn rebuild(&mut self) {
@@ -702,7 +714,7 @@ impl Simulation {
             &self.mesh_present,
             &p.position_m,
             &p.radius_m,
-            self.config.skin_m,
+            self.wall_margin_m(),
         );
         self.wall_contacts =
             WallContactStore::carried(&self.wall_contacts, &self.wall_candidates, &former);

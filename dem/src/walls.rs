@@ -88,7 +88,9 @@ pub struct WallCandidates {
 }
 
 impl WallCandidates {
-    /// Finds the candidates of every particle; meshes that are gone are skipped.
+    /// Finds the candidates of every particle: triangles closer than its radius plus
+    /// `margin_m` (how much closer the two can come before the next rebuild); meshes
+    /// that are gone are skipped.
     pub fn build(
         meshes: &[WallMesh],
         indexes: &[MeshIndex],
@@ -96,7 +98,7 @@ impl WallCandidates {
         present: &[bool],
         positions_m: &[Vec3],
         radii_m: &[Real],
-        skin_m: Real,
+        margin_m: Real,
     ) -> Self {
         let rows: Vec<Vec<(u16, u32)>> = (0..positions_m.len())
             .into_par_iter()
@@ -106,7 +108,7 @@ impl WallCandidates {
                     if !present[m] {
                         continue;
                     }
-                    let reach = radii_m[i] + skin_m;
+                    let reach = radii_m[i] + margin_m;
                     let p = positions_m[i];
                     for &t in indexes[m].near(p - offsets_m[m]) {
                         if !mesh.may_reach(t, p, offsets_m[m], reach) {

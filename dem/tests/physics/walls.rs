@@ -104,3 +104,45 @@ fn a_moving_wall_drags_a_sphere_to_two_sevenths_of_its_speed() {
     let contact_speed = v - RADIUS * sim.particles.angular_velocity[0].y;
     assert_relative_eq!(contact_speed, belt_speed, max_relative = 0.01);
 }
+
+/// The wall candidates listed at a rebuild reach half the skin past each radius, as
+/// far as a particle and a wall can close in before the next rebuild. A sphere at rest
+/// (no gravity) waits above a floor that rises at constant speed, so the floor alone
+/// decides when rebuilds fall: at each of forty clearances spread over three skins,
+/// the sphere first touches the floor in the step its centre comes closer to it than
+/// its radius, however that step falls between rebuilds.
+#[test]
+fn a_rising_floor_touches_a_sphere_from_the_step_it_reaches_it() {
+    let radius = 0.0005;
+    let rise_m_s = 0.5;
+    let m = material(0.6, 0.5);
+    let kind = sphere(radius, m);
+    let skin = config(1e-5, m).skin_m;
+    for k in 0..40 {
+        let clearance = 7.3e-6 + k as f64 * 0.077 * skin;
+        let p = particles(
+            &kind,
+            &[Vec3::new(0.0, 0.0, radius + clearance)],
+            &[Vec3::zeros()],
+        );
+        let mut floor = crate::floor(0.01);
+        floor.motion = Motion::Translation {
+            velocity_m_s: Vec3::new(0.0, 0.0, rise_m_s),
+            start_s: 0.0,
+        };
+        let mut sim = Simulation::new(config(1e-5, m), vec![kind], p, vec![floor]).unwrap();
+        loop {
+            sim.step().unwrap();
+            let gap = sim.particles.position_m[0].z - rise_m_s * sim.time_s() - radius;
+            assert_eq!(
+                sim.wall_contact_count(0) > 0,
+                gap < 0.0,
+                "clearance {clearance:e} m: {gap:e} m from the floor at t = {} s",
+                sim.time_s()
+            );
+            if gap < 0.0 {
+                break;
+            }
+        }
+    }
+}

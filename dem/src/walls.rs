@@ -79,12 +79,36 @@ impl MeshIndex {
     }
 }
 
-/// For each particle, the wall triangles within its radius plus the skin, as
-/// `(mesh index, triangle index)`, in compressed rows.
+/// One wall triangle near a particle, with the triangle's plane beside it: the plane
+/// test rejects most candidates in a step, and with its data here it needs no look-up
+/// in the mesh.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WallCandidate {
+    /// Mesh index.
+    pub mesh: u16,
+    /// Triangle index in the mesh.
+    pub triangle: u32,
+    /// The triangle's unit normal, in the mesh's file position.
+    normal: Vec3,
+    /// The plane's offset along `normal` in the mesh's file position, m.
+    plane_offset_m: Real,
+}
+
+impl WallCandidate {
+    /// Whether the triangle's plane passes closer than `reach_m` to `local` (a point
+    /// in the mesh's file position): false means the triangle certainly does not.
+    #[inline]
+    fn plane_within(&self, local: Vec3, reach_m: Real) -> bool {
+        (self.normal.dot(&local) - self.plane_offset_m).abs() < reach_m
+    }
+}
+
+/// For each particle, the wall triangles within its radius plus a margin, in
+/// compressed rows.
 #[derive(Debug, Clone, Default)]
 pub struct WallCandidates {
     start: Vec<u32>,
-    entries: Vec<(u16, u32)>,
+    entries: Vec<WallCandidate>,
 }
 
 impl WallCandidates {
@@ -100,7 +124,7 @@ impl WallCandidates {
         radii_m: &[Real],
         margin_m: Real,
     ) -> Self {
-        let rows: Vec<Vec<(u16, u32)>> = (0..positions_m.len())
+        let rows: Vec<Vec<WallCandidate>> = (0..positions_m.len())
             .into_par_iter()
             .map(|i| {
                 let mut row = Vec::new();
@@ -116,7 +140,13 @@ impl WallCandidates {
                         }
                         let q = mesh.closest_point(t, p, offsets_m[m]).point;
                         if (p - q).norm_squared() < reach * reach {
-                            row.push((m as u16, t));
+                            let (normal, plane_offset_m) = mesh.plane(t);
+                            row.push(WallCandidate {
+                                mesh: m as u16,
+                                triangle: t,
+                                normal,
+                                plane_offset_m,
+                            });
                         }
                     }
                 }
@@ -134,7 +164,7 @@ impl WallCandidates {
 
     /// Candidates of particle `i`.
     #[inline]
-    pub fn of(&self, i: usize) -> &[(u16, u32)] {
+    pub fn of(&self, i: usize) -> &[WallCandidate] {
         &self.entries[self.start[i] as usize..self.start[i + 1] as usize]
     }
 }
@@ -317,7 +347,7 @@ struct Touch {
 /// `contacts` over, and sums the forces.
 pub fn wall_load(
     walls: &WallState<'_>,
-    candidates: &[(u16, u32)],
+    candidates: &[WallCandidate],
     particle: &ParticleView,
     contacts: &mut WallContacts,
 ) -> WallLoad {
@@ -335,15 +365,22 @@ pub fn wall_load(
     let r = particle.radius_m;
     let mut touches: [Option<Touch>; 8] = [None; 8];
     let mut count = 0;
-    for &(m, t) in candidates {
+    for candidate in candidates {
+        let (m, t) = (candidate.mesh, candidate.triangle);
         if !walls.present[m as usize] || count == touches.len() {
             continue;
         }
-        let mesh = &walls.meshes[m as usize];
-        if !mesh.may_reach(t, p, walls.offsets_m[m as usize], r) {
+        // The tests of `WallMesh::may_reach`, the plane's first.
+        let offset_m = walls.offsets_m[m as usize];
+        let local = p - offset_m;
+        if !candidate.plane_within(local, r) {
             continue;
         }
-        let hit = mesh.closest_point(t, p, walls.offsets_m[m as usize]);
+        let mesh = &walls.meshes[m as usize];
+        if !mesh.bound_within(t, local, r) {
+            continue;
+        }
+        let hit = mesh.closest_point(t, p, offset_m);
         let offset = p - hit.point;
         let distance_squared = offset.norm_squared();
         if distance_squared >= r * r {

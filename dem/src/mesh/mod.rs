@@ -197,13 +197,27 @@ impl WallMesh {
     #[inline]
     pub fn may_reach(&self, index: u32, p: Vec3, offset_m: Vec3, reach_m: Real) -> bool {
         let local = p - offset_m;
-        let (centre, radius) = self.bounds[index as usize];
-        let limit = radius + reach_m;
-        if (local - centre).norm_squared() >= limit * limit {
+        if !self.bound_within(index, local, reach_m) {
             return false;
         }
         let (normal, offset) = self.planes[index as usize];
         (normal.dot(&local) - offset).abs() < reach_m
+    }
+
+    /// Whether triangle `index`'s bounding sphere passes closer than `reach_m` to
+    /// `local` (a point in the file's position): false means the triangle does not.
+    #[inline]
+    pub fn bound_within(&self, index: u32, local: Vec3, reach_m: Real) -> bool {
+        let (centre, radius) = self.bounds[index as usize];
+        let limit = radius + reach_m;
+        (local - centre).norm_squared() < limit * limit
+    }
+
+    /// Triangle `index`'s plane in the file's position: unit normal and offset along
+    /// it, m.
+    #[inline]
+    pub fn plane(&self, index: u32) -> (Vec3, Real) {
+        self.planes[index as usize]
     }
 
     /// The point of triangle `index`, displaced by `offset_m`, closest to `p`.

@@ -19,7 +19,7 @@
 use rayon::prelude::*;
 
 use crate::force::{hertz_mindlin, ContactGeometry};
-use crate::material::ContactTable;
+use crate::material::{ContactTable, PairConstants};
 use crate::math::{Real, Vec3};
 use crate::mesh::{FeatureId, WallMesh};
 use crate::neighbour::CellGrid;
@@ -403,6 +403,17 @@ pub fn wall_load(
         contacts.len = 0;
         return load;
     }
+    let constants = walls.table.wall(particle.kind);
+    if count == 1 {
+        // Every rule keeps a lone touch; its history is found as for any other.
+        let touch = touches[0].expect("the first touch is set");
+        let (shear, continued) = lone_history(contacts.as_slice(), &touch, walls.cos_coplanar);
+        contacts.len = 0;
+        add_contact(
+            walls, constants, particle, &touch, shear, continued, &mut load, contacts,
+        );
+        return load;
+    }
     let touches = &mut touches[..count];
 
     // Rules 1 and 2: faces first, then edges, then vertices, each only once.
@@ -495,42 +506,87 @@ pub fn wall_load(
         }
     }
 
-    let constants = walls.table.wall(particle.kind);
     for (slot, touch) in kept[..n_kept].iter().flatten().enumerate() {
-        let n = touch.normal;
-        let wall_velocity = walls.velocities_m_s[touch.mesh as usize];
-        let contact_velocity =
-            particle.velocity_m_s - r * particle.angular_velocity.cross(&n) - wall_velocity;
-        if !continued[slot] {
-            let approach = -contact_velocity.dot(&n);
-            if approach > 0.0 {
-                load.impact_energy_j += 0.5 * particle.mass_kg * approach * approach;
-            }
-        }
-        let mut shear = shears[slot];
-        let geometry = ContactGeometry {
-            normal: n,
-            overlap_m: touch.overlap_m,
-            effective_radius_m: r,
-            effective_mass_kg: particle.mass_kg,
-        };
-        let result = hertz_mindlin(
+        add_contact(
+            walls,
             constants,
-            &geometry,
-            contact_velocity,
-            particle.angular_velocity,
-            &mut shear,
-            walls.dt_s,
+            particle,
+            touch,
+            shears[slot],
+            continued[slot],
+            &mut load,
+            contacts,
         );
-        load.force_n += result.force;
-        load.torque_n_m += (-r * n).cross(&result.tangential) + result.rolling_torque;
-        load.worst_overlap_ratio = load.worst_overlap_ratio.max(touch.overlap_m / r);
-        contacts.push(WallContact {
-            mesh: touch.mesh,
-            feature: touch.feature,
-            normal: n,
-            shear_m: shear,
-        });
     }
     load
+}
+
+/// The history a lone touch carries on: that of the same feature, else that of the
+/// most nearly parallel contact on its mesh within the coplanar angle (as the general
+/// rule finds it, where nothing has been inherited yet); whether it continues one.
+fn lone_history(previous: &[WallContact], touch: &Touch, cos_coplanar: Real) -> (Vec3, bool) {
+    if let Some(same) = previous
+        .iter()
+        .find(|c| c.mesh == touch.mesh && c.feature == touch.feature)
+    {
+        return (same.shear_m, true);
+    }
+    previous
+        .iter()
+        .filter(|c| c.mesh == touch.mesh && c.normal.dot(&touch.normal) > cos_coplanar)
+        .max_by(|a, b| {
+            a.normal
+                .dot(&touch.normal)
+                .total_cmp(&b.normal.dot(&touch.normal))
+        })
+        .map_or((Vec3::zeros(), false), |c| (c.shear_m, true))
+}
+
+/// Adds one kept touch's contact force, with the history `shear`, to `load`, its
+/// impact energy when it begins (`continued` false), and the contact to `contacts`.
+#[allow(clippy::too_many_arguments)]
+fn add_contact(
+    walls: &WallState<'_>,
+    constants: &PairConstants,
+    particle: &ParticleView,
+    touch: &Touch,
+    mut shear: Vec3,
+    continued: bool,
+    load: &mut WallLoad,
+    contacts: &mut WallContacts,
+) {
+    let r = particle.radius_m;
+    let n = touch.normal;
+    let wall_velocity = walls.velocities_m_s[touch.mesh as usize];
+    let contact_velocity =
+        particle.velocity_m_s - r * particle.angular_velocity.cross(&n) - wall_velocity;
+    if !continued {
+        let approach = -contact_velocity.dot(&n);
+        if approach > 0.0 {
+            load.impact_energy_j += 0.5 * particle.mass_kg * approach * approach;
+        }
+    }
+    let geometry = ContactGeometry {
+        normal: n,
+        overlap_m: touch.overlap_m,
+        effective_radius_m: r,
+        effective_mass_kg: particle.mass_kg,
+    };
+    let result = hertz_mindlin(
+        constants,
+        &geometry,
+        contact_velocity,
+        particle.angular_velocity,
+        &mut shear,
+        walls.dt_s,
+    );
+    load.force_n += result.force;
+    load.torque_n_m += (-r * n).cross(&result.tangential) + result.rolling_torque;
+    load.worst_overlap_ratio = load.worst_overlap_ratio.max(touch.overlap_m / r);
+    contacts.push(WallContact {
+        mesh: touch.mesh,
+        feature: touch.feature,
+        normal: n,
+        shear_m: shear,
+    });
 }

@@ -781,8 +781,9 @@ impl Simulation {
     fn pair_forces(&mut self) -> Option<(Real, usize, usize)> {
         let n = self.particles.len();
         let rows = &self.pairs.row_start;
-        let mut shear_blocks = Vec::new();
-        let mut load_blocks = Vec::new();
+        let blocks = n.div_ceil(BLOCK);
+        let mut shear_blocks = Vec::with_capacity(blocks);
+        let mut load_blocks = Vec::with_capacity(blocks);
         let mut shear_rest: &mut [Vec3] = &mut self.pairs.shear_m;
         let mut contact_rest: &mut [bool] = &mut self.pairs.in_contact;
         let mut load_rest: &mut [PairLoad] = &mut self.pair_loads;
@@ -799,7 +800,7 @@ impl Simulation {
         } = &mut self.particles;
         let mut force_rest: &mut [Vec3] = force_n;
         let mut torque_rest: &mut [Vec3] = torque_n_m;
-        let mut sum_blocks = Vec::new();
+        let mut sum_blocks = Vec::with_capacity(blocks);
         for first in (0..n).step_by(BLOCK) {
             let last = (first + BLOCK).min(n);
             let len = (rows[last] - rows[first]) as usize;

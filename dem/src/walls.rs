@@ -470,11 +470,7 @@ pub fn wall_load(
     let mut matched = [false; MAX_WALL_CONTACTS];
     let mut continued = [false; MAX_WALL_CONTACTS];
     for (slot, touch) in kept[..n_kept].iter().flatten().enumerate() {
-        if let Some(k) = previous
-            .as_slice()
-            .iter()
-            .position(|c| c.mesh == touch.mesh && c.feature == touch.feature)
-        {
+        if let Some(k) = same_feature(previous.as_slice(), touch) {
             shears[slot] = previous.items[k].shear_m;
             inherited[k] = true;
             matched[slot] = true;
@@ -485,22 +481,9 @@ pub fn wall_load(
         if matched[slot] {
             continue;
         }
-        let best = previous
-            .as_slice()
-            .iter()
-            .enumerate()
-            .filter(|(k, c)| {
-                !inherited[*k]
-                    && c.mesh == touch.mesh
-                    && c.normal.dot(&touch.normal) > walls.cos_coplanar
-            })
-            .max_by(|a, b| {
-                a.1.normal
-                    .dot(&touch.normal)
-                    .total_cmp(&b.1.normal.dot(&touch.normal))
-            });
-        if let Some((k, c)) = best {
-            shears[slot] = c.shear_m;
+        let best = most_parallel(previous.as_slice(), touch, walls.cos_coplanar, &inherited);
+        if let Some(k) = best {
+            shears[slot] = previous.items[k].shear_m;
             inherited[k] = true;
             continued[slot] = true;
         }
@@ -521,25 +504,41 @@ pub fn wall_load(
     load
 }
 
-/// The history a lone touch carries on: that of the same feature, else that of the
-/// most nearly parallel contact on its mesh within the coplanar angle (as the general
-/// rule finds it, where nothing has been inherited yet); whether it continues one.
+/// The history a lone touch carries on, by the rules above with nothing inherited yet,
+/// and whether it continues a contact of the last step.
 fn lone_history(previous: &[WallContact], touch: &Touch, cos_coplanar: Real) -> (Vec3, bool) {
-    if let Some(same) = previous
-        .iter()
-        .find(|c| c.mesh == touch.mesh && c.feature == touch.feature)
-    {
-        return (same.shear_m, true);
-    }
+    same_feature(previous, touch)
+        .or_else(|| most_parallel(previous, touch, cos_coplanar, &[false; MAX_WALL_CONTACTS]))
+        .map_or((Vec3::zeros(), false), |k| (previous[k].shear_m, true))
+}
+
+/// The contact of the last step, if any, on the same feature as `touch`.
+fn same_feature(previous: &[WallContact], touch: &Touch) -> Option<usize> {
     previous
         .iter()
-        .filter(|c| c.mesh == touch.mesh && c.normal.dot(&touch.normal) > cos_coplanar)
-        .max_by(|a, b| {
-            a.normal
-                .dot(&touch.normal)
-                .total_cmp(&b.normal.dot(&touch.normal))
+        .position(|c| c.mesh == touch.mesh && c.feature == touch.feature)
+}
+
+/// Of the last step's contacts not `inherited` yet, the one on `touch`'s mesh most
+/// nearly parallel to it within the coplanar angle (the last of equals).
+fn most_parallel(
+    previous: &[WallContact],
+    touch: &Touch,
+    cos_coplanar: Real,
+    inherited: &[bool; MAX_WALL_CONTACTS],
+) -> Option<usize> {
+    previous
+        .iter()
+        .enumerate()
+        .filter(|(k, c)| {
+            !inherited[*k] && c.mesh == touch.mesh && c.normal.dot(&touch.normal) > cos_coplanar
         })
-        .map_or((Vec3::zeros(), false), |c| (c.shear_m, true))
+        .max_by(|a, b| {
+            a.1.normal
+                .dot(&touch.normal)
+                .total_cmp(&b.1.normal.dot(&touch.normal))
+        })
+        .map(|(k, _)| k)
 }
 
 /// Adds one kept touch's contact force, with the history `shear`, to `load`, its

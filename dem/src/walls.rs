@@ -467,18 +467,17 @@ pub fn wall_load(
     }
     // Histories: the same feature first, else a nearly parallel contact on the mesh.
     let mut shears = [Vec3::zeros(); MAX_WALL_CONTACTS];
-    let mut matched = [false; MAX_WALL_CONTACTS];
     let mut continued = [false; MAX_WALL_CONTACTS];
     for (slot, touch) in kept[..n_kept].iter().flatten().enumerate() {
         if let Some(k) = same_feature(previous.as_slice(), touch) {
             shears[slot] = previous.items[k].shear_m;
             inherited[k] = true;
-            matched[slot] = true;
             continued[slot] = true;
         }
     }
     for (slot, touch) in kept[..n_kept].iter().flatten().enumerate() {
-        if matched[slot] {
+        // Only the same-feature pass has set `continued` so far.
+        if continued[slot] {
             continue;
         }
         let best = most_parallel(previous.as_slice(), touch, walls.cos_coplanar, &inherited);

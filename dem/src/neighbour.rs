@@ -6,8 +6,10 @@
 //! particle removal and reordering (a new pair finds its old slot through each
 //! member's former index), as rapier's narrow phase keeps persistent contact pairs. A
 //! reverse index lets each particle gather the forces of the pairs it is the second
-//! member of, so the sum over a particle's contacts runs in a fixed order whatever the
-//! number of threads.
+//! member of (the stepper reads those whose row lies outside the particle's block of
+//! the pair pass), so the sum over a particle's contacts runs in a fixed order
+//! whatever the number of threads. A particle's reverse entries ascend, pairs being
+//! numbered row by row.
 //!
 //! At each rebuild the stepper sorts the particles along a Morton (Z-order) curve over
 //! the cells ([`CurveOrder`]): a particle's partners then sit a few cache lines from

@@ -10,18 +10,22 @@
 //!    ([`crate::inflow`]), the particles are sorted along a Morton curve over the
 //!    neighbour cells (memory order follows space), and the pair list and wall
 //!    candidates are rebuilt.
-//! 3. **Pair forces** (parallel over blocks of particles): each pair's Hertz–Mindlin
-//!    force into a per-pair slot, histories updated in place.
+//! 3. **Pair forces** (parallel over blocks of [`BLOCK`] particles): each pair's
+//!    Hertz–Mindlin force, histories updated in place. A block sums onto its own
+//!    particles, both members of a pair inside it; a pair whose second member lies in a
+//!    later block leaves that member's share in a per-pair slot.
 //! 4. **Gather** (parallel over particles): gravity, air drag (when there is air; in
-//!    the air's velocity field where one is given and covers the particle), the
-//!    particle's pair forces in list order, and its wall contacts; the normal approach energy of wall contacts that
-//!    begin is added to the wall impact energy (in index order).
+//!    the air's velocity field where one is given and covers the particle), the shares
+//!    earlier blocks left in per-pair slots, in list order, and its wall contacts; the
+//!    normal approach energy of wall contacts that begin is added to the wall impact
+//!    energy (in index order).
 //! 5. **Kick**: `v += dt/2 F/m`, `ω += dt/2 τ/I`; speeds and overlaps beyond their
 //!    bounds stop the run with [`Unstable`].
 //!
-//! Every sum runs in an order fixed by the particle and pair indices, and the sort is
-//! a counting sort whose ties keep index order, so a run gives the same numbers, bit
-//! for bit, with any number of threads.
+//! Every sum runs in an order fixed by the particle and pair indices and by the blocks,
+//! whose bounds depend on the particle count alone, and the sort is a counting sort
+//! whose ties keep index order, so a run gives the same numbers, bit for bit, with any
+//! number of threads.
 
 use std::time::{Duration, Instant};
 
@@ -145,8 +149,9 @@ pub struct StageTimers {
     pub rebuilds: u64,
 }
 
-/// What a touching pair exerts on its second member, stored per pair and gathered
-/// per particle (the first member's share is summed in the pair pass itself).
+/// What a touching pair exerts on its second member when that member lies in a later
+/// block than the first: stored per pair and gathered per particle (a block sums every
+/// other share onto its own particles in the pair pass itself).
 #[derive(Debug, Clone, Copy, Default)]
 struct PairLoad {
     force_on_first: Vec3,
@@ -163,8 +168,19 @@ struct Deepest {
     j: usize,
 }
 
-/// Pair rows are processed in blocks of this many particles.
-const BLOCK: usize = 64;
+/// Pair rows are processed in blocks of this many particles, each block by one thread.
+///
+/// A block adds both shares of a pair whose members it holds straight onto their
+/// sums; only a pair reaching into a later block goes through a per-pair slot that
+/// the gather reads back from wherever its row lies, a read that misses the cache once
+/// the pair slots outgrow it. Particles sit in Morton order, so a block is a compact
+/// piece of space and most of its pairs stay inside it, more the larger it is.
+/// Measured on a 30 000-sphere settled bed (one thread) against every pair going
+/// through a slot: blocks of 64 ran 1.17× as fast, 256 a further 1.10×, 512 a further
+/// 1.03×; 256 still leaves 118 blocks there to share among threads (12 on the
+/// 3000-particle hopper). The bounds of the blocks follow from the particle count
+/// alone, never from the number of threads, so the sums keep their order.
+const BLOCK: usize = 256;
 
 /// Integration runs over chunks of this many particles.
 const CHUNK: usize = 512;
@@ -777,7 +793,8 @@ impl Simulation {
         }
     }
 
-    /// Pair forces into per-pair slots; returns the deepest overlap (ratio, i, j).
+    /// Pair forces onto each block's particles, and into per-pair slots for second
+    /// members in later blocks; returns the deepest overlap (ratio, i, j).
     fn pair_forces(&mut self) -> Option<(Real, usize, usize)> {
         let n = self.particles.len();
         let rows = &self.pairs.row_start;
@@ -832,6 +849,8 @@ impl Simulation {
                 |(((first, last, shear, in_contact), loads), (forces, torques))| {
                     let base = rows[first] as usize;
                     let mut worst: Option<Deepest> = None;
+                    forces.fill(Vec3::zeros());
+                    torques.fill(Vec3::zeros());
                     for i in first..last {
                         let mut force_i = Vec3::zeros();
                         let mut torque_i = Vec3::zeros();
@@ -897,13 +916,21 @@ impl Simulation {
                             let lever = n.cross(&result.tangential);
                             force_i += result.force;
                             torque_i += -ri * lever + result.rolling_torque;
-                            loads[local] = PairLoad {
-                                force_on_first: result.force,
-                                torque_on_second: -rj * lever - result.rolling_torque,
-                            };
+                            let torque_j = -rj * lever - result.rolling_torque;
+                            if j < last {
+                                // Both members in the block: summed here, in pair order.
+                                forces[j - first] -= result.force;
+                                torques[j - first] += torque_j;
+                            } else {
+                                loads[local] = PairLoad {
+                                    force_on_first: result.force,
+                                    torque_on_second: torque_j,
+                                };
+                            }
                         }
-                        forces[i - first] = force_i;
-                        torques[i - first] = torque_i;
+                        // After the shares of the block's earlier rows, as second member.
+                        forces[i - first] += force_i;
+                        torques[i - first] += torque_i;
                     }
                     worst.map(|w| (w.overlap_m / w.smaller_m, w.i, w.j))
                 },
@@ -958,12 +985,18 @@ impl Simulation {
                         .enumerate()
                     {
                         let i = first + k;
-                        // The pair pass left this particle's own row sum here.
+                        // The pair pass left this particle's sum over its block's pairs
+                        // here; the pairs of earlier blocks come first in its reverse
+                        // index (pairs are numbered row by row), up to its block's rows.
                         let mut f = *force;
                         let mut t = *torque;
+                        let block_rows = pairs.row_start[i - i % BLOCK];
                         for &k in &pairs.reverse_pair
                             [pairs.reverse_start[i] as usize..pairs.reverse_start[i + 1] as usize]
                         {
+                            if k >= block_rows {
+                                break;
+                            }
                             if pairs.in_contact[k as usize] {
                                 let load = &loads[k as usize];
                                 f -= load.force_on_first;

@@ -10,6 +10,7 @@ mod energy;
 mod impacts;
 mod incline;
 mod inflow;
+mod momentum;
 mod verification;
 mod walls;
 

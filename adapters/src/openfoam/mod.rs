@@ -227,7 +227,10 @@ pub struct StreamInputs {
     pub discharge_rate_kg_per_s: f64,
     /// Mean downward speed at the sensor plane, m/s (`exit_speed`).
     pub exit_speed_m_per_s: f64,
-    /// Radius of the stream at the sensor plane, m (`stream_radius`).
+    /// Radius of the stream at the sensor plane, m (`stream_radius_95`: the 95 % mass
+    /// quantile of the particles' surface distances from the axis). Not the largest
+    /// centre distance (`stream_radius`), which one particle knocked sideways sets: the
+    /// drag acts where the mass is.
     pub stream_radius_m: f64,
     /// Coarse particle diameter, m (DEM parameter).
     pub coarse_diameter_m: f64,
@@ -255,7 +258,7 @@ pub static RESPONSE_SPECS: &[ResponseSpec] = &[
 
 /// The upstream job's responses the stream is built from: its mass flow, mean downward
 /// speed and radius at the sensor plane.
-pub const UPSTREAM_RESPONSES: &[&str] = &["discharge_rate", "exit_speed", "stream_radius"];
+pub const UPSTREAM_RESPONSES: &[&str] = &["discharge_rate", "exit_speed", "stream_radius_95"];
 
 /// The upstream case's parameters the drag is built from: the two particle sizes,
 /// their mass fractions and density.
@@ -425,7 +428,7 @@ pub fn check(case: &Case, stream: &StreamInputs) -> Result<(), RenderError> {
     }
     if !(stream.discharge_rate_kg_per_s > 0.0 && stream.stream_radius_m > 0.0) {
         return Err(RenderError::InvalidCase(format!(
-            "the DEM stage gave no stream to drive the air (discharge_rate {} kg/s, stream_radius {} m)",
+            "the DEM stage gave no stream to drive the air (discharge_rate {} kg/s, stream_radius_95 {} m)",
             stream.discharge_rate_kg_per_s, stream.stream_radius_m
         )));
     }

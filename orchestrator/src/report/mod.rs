@@ -419,7 +419,11 @@ fn surface_section(data: &Data<'_>, round: &StoredRound, fit: &StoredFit, runs: 
         None => out.push_str("<p class=\"note\">Predicted against observed: no leave-one-out predictions, because a run has leverage 1 (see Definitions).</p>\n"),
     }
     match surface.polynomial().map(Fit::effects) {
-        Some(effects) if effects.is_empty() => out.push_str("<p class=\"note\">Pareto chart: no standardised effects (as many runs as terms).</p>\n"),
+        Some(effects) if effects.is_empty() => out.push_str(if surface.polynomial().is_some_and(|f| f.t_values.is_some()) {
+            "<p class=\"note\">Pareto chart: no standardised effects (the surface is the mean alone; no factor's term earned its place).</p>\n"
+        } else {
+            "<p class=\"note\">Pareto chart: no standardised effects (as many runs as terms).</p>\n"
+        }),
         Some(effects) => out.push_str(&figure(
             &plots::pareto(&format!("Pareto chart: {}", fit.response), &effects),
             "Terms ranked by |t|; blue positive, orange negative coefficients.",

@@ -19,7 +19,7 @@ use std::collections::{BTreeMap, HashMap};
 use std::fmt::Write;
 
 use orch_metamodel::surrogate::Surrogate;
-use orch_metamodel::{FactorRange, Fit};
+use orch_metamodel::FactorRange;
 
 use crate::export::unit_of;
 use crate::store::{FactorRow, Store, StoreError, StoredFit, StoredRound, StudyRow};
@@ -418,16 +418,20 @@ fn surface_section(data: &Data<'_>, round: &StoredRound, fit: &StoredFit, runs: 
         )),
         None => out.push_str("<p class=\"note\">Predicted against observed: no leave-one-out predictions, because a run has leverage 1 (see Definitions).</p>\n"),
     }
-    match surface.polynomial().map(Fit::effects) {
-        Some(effects) if effects.is_empty() => out.push_str(if surface.polynomial().is_some_and(|f| f.t_values.is_some()) {
-            "<p class=\"note\">Pareto chart: no standardised effects (the surface is the mean alone; no factor's term earned its place).</p>\n"
-        } else {
-            "<p class=\"note\">Pareto chart: no standardised effects (as many runs as terms).</p>\n"
-        }),
-        Some(effects) => out.push_str(&figure(
-            &plots::pareto(&format!("Pareto chart: {}", fit.response), &effects),
-            "Terms ranked by |t|; blue positive, orange negative coefficients.",
-        )),
+    match surface.polynomial() {
+        Some(polynomial) => {
+            let effects = polynomial.effects();
+            if !effects.is_empty() {
+                out.push_str(&figure(
+                    &plots::pareto(&format!("Pareto chart: {}", fit.response), &effects),
+                    "Terms ranked by |t|; blue positive, orange negative coefficients.",
+                ));
+            } else if polynomial.t_values.is_some() {
+                out.push_str("<p class=\"note\">Pareto chart: no standardised effects (the surface is the mean alone; no factor's term earned its place).</p>\n");
+            } else {
+                out.push_str("<p class=\"note\">Pareto chart: no standardised effects (as many runs as terms).</p>\n");
+            }
+        }
         None => out.push_str("<p class=\"note\">Pareto chart: a Kriging surface has no terms; the Sobol indices beside it rank the factors instead.</p>\n"),
     }
     out.push_str(&sobol_figure(data, fit));

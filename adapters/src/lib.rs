@@ -81,6 +81,12 @@ pub struct CommandSpec {
     /// asks for `N` tasks of one CPU for the first and one task of `N` CPUs for the
     /// second.
     pub mpi: bool,
+    /// True when the result is bit-for-bit the same on any number of cores (the native
+    /// kernel's fixed summation order): a run's identity then leaves the cores and
+    /// the arguments that carry them out. False for every program that decomposes
+    /// its domain or sums in the order threads finish (LIGGGHTS, YADE, OpenFOAM, a
+    /// user's deck).
+    pub same_result_on_any_cores: bool,
     /// The file, relative to the run directory, holding the solver's own log.
     pub log_file: String,
 }

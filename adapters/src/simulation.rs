@@ -337,6 +337,7 @@ pub(crate) fn context_of(case: &Case, cores: usize) -> Context {
         context.insert(name.as_str(), value);
     }
     context.insert("seed", &case.seed);
+    context.insert("seed_prime", &crate::primes::prime_seed(case.seed, 0));
     context.insert("cores", &cores);
     context
 }

@@ -97,6 +97,7 @@ pub(crate) fn solver_command(
         env: Default::default(),
         cores,
         mpi: false,
+        same_result_on_any_cores: false,
         log_file: log_file.to_string(),
     }
 }

@@ -49,6 +49,10 @@ pub enum Command {
         /// template beside the study submitted before).
         #[arg(long = "as", value_name = "NAME")]
         as_name: Option<String>,
+        /// Run every job, even one whose run (the same rendered files, program, seed
+        /// and cores) already succeeded in the project; as `reuse: false` in the file.
+        #[arg(long)]
+        no_reuse: bool,
     },
     /// Where every study, or every job of one study, stands.
     Status {
@@ -115,6 +119,9 @@ pub enum Command {
         /// Also run failed jobs again, with fresh attempts.
         #[arg(long)]
         retry_failed: bool,
+        /// Run every job, even one whose run already succeeded in the project.
+        #[arg(long)]
+        no_reuse: bool,
     },
     /// What a study can use: equipment, solvers and stages; with a name, its parameters
     /// (default, unit, range) and responses (unit).
@@ -199,7 +206,8 @@ pub async fn run(args: Args) -> anyhow::Result<i32> {
             study_file,
             dry_run,
             as_name,
-        } => submit(&study_file, project_dir, dry_run, as_name.as_deref()).await,
+            no_reuse,
+        } => submit(&study_file, project_dir, dry_run, as_name.as_deref(), no_reuse).await,
         Command::Delete { study } => delete(project_dir, &study).await,
         Command::Status { study, json } => show_status(project_dir, study.as_deref(), json).await,
         Command::Logs { job, tail } => logs(project_dir, &job, tail).await,
@@ -215,7 +223,8 @@ pub async fn run(args: Args) -> anyhow::Result<i32> {
         Command::Resume {
             study,
             retry_failed,
-        } => resume(project_dir, &study, retry_failed).await,
+            no_reuse,
+        } => resume(project_dir, &study, retry_failed, no_reuse).await,
         Command::Params {
             name,
             solver,
@@ -592,11 +601,13 @@ async fn submit(
     project_dir: Option<&Path>,
     dry_run: bool,
     as_name: Option<&str>,
+    no_reuse: bool,
 ) -> anyhow::Result<i32> {
     let mut study = Study::load(study_file).map_err(study_error)?;
     if let Some(name) = as_name {
         study.rename(name).map_err(input_error)?;
     }
+    study.reuse &= !no_reuse;
     if dry_run {
         outln!(
             "{}: {} design points × {} replicates = {} jobs: {} on {}",
@@ -739,7 +750,7 @@ async fn drive(store: &Store, row: &StudyRow, study: &Study) -> anyhow::Result<i
     store.release_driver(row.id, final_state).await?;
     let summary = outcome?;
     errln!(
-        "orch: study `{}` {}: {} succeeded, {} failed, {} cancelled, {} unfinished; details: orch status {}",
+        "orch: study `{}` {}: {} succeeded{}, {} failed, {} cancelled, {} unfinished; details: orch status {}",
         study.name,
         match summary.ending {
             Ending::Finished => "finished",
@@ -747,6 +758,10 @@ async fn drive(store: &Store, row: &StudyRow, study: &Study) -> anyhow::Result<i
             Ending::Cancelled => "cancelled",
         },
         summary.succeeded,
+        match summary.reused {
+            0 => String::new(),
+            n => format!(" ({n} of them reused identical runs instead of running)"),
+        },
         summary.failed,
         summary.cancelled,
         summary.unfinished,
@@ -1022,6 +1037,9 @@ async fn delete(project_dir: Option<&Path>, name: &str) -> anyhow::Result<i32> {
         rows.insert(0, noise);
     }
     for row in &rows {
+        // What other studies reused of this one is theirs already: their jobs hold
+        // their own copy of each run's results, and hard links to its files.
+        let reusers = store.reusers_of(row.id).await?;
         store.delete_study(row, process::is_alive).await?;
         let runs = store
             .path()
@@ -1038,6 +1056,14 @@ async fn delete(project_dir: Option<&Path>, name: &str) -> anyhow::Result<i32> {
             })?;
         }
         errln!("orch: deleted study `{}` and its runs", row.name);
+        if let Some(first) = reusers.first() {
+            errln!(
+                "orch: {} jobs of other studies reused runs of `{}` ({first}{}); they keep their own copies of those runs' results and files",
+                reusers.len(),
+                row.name,
+                if reusers.len() > 1 { ", …" } else { "" }
+            );
+        }
     }
     Ok(exit_codes::SUCCESS)
 }
@@ -1348,11 +1374,17 @@ async fn reopen(store: &Store, row: &StudyRow, retry_failed: bool) -> anyhow::Re
     Ok(())
 }
 
-async fn resume(project_dir: Option<&Path>, name: &str, retry_failed: bool) -> anyhow::Result<i32> {
+async fn resume(
+    project_dir: Option<&Path>,
+    name: &str,
+    retry_failed: bool,
+    no_reuse: bool,
+) -> anyhow::Result<i32> {
     let (store, row) = find(project_dir, name).await?;
-    let study = stored_study(&store, &row)
+    let mut study = stored_study(&store, &row)
         .await?
         .map_err(|e| input_error(format!("the stored study file no longer validates: {e}")))?;
+    study.reuse &= !no_reuse;
     claim_and_reopen(&store, &row, retry_failed).await?;
     if store
         .job_links(row.id)

@@ -143,6 +143,8 @@ mod tests {
             scheduler_state: None,
             stage: stage.to_string(),
             after_job_id: after,
+            identity: None,
+            reused_from: None,
         }
     }
 
@@ -204,6 +206,7 @@ mod tests {
                 state: j.state,
                 stage: j.stage.as_str().into(),
                 after_job_id: j.after_job_id,
+                identity: None,
             })
             .collect();
         assert_eq!(superseded(&lean), HashSet::from([1, 2]));

@@ -74,6 +74,8 @@ pub struct Summary {
     pub ending: Ending,
     /// Jobs succeeded.
     pub succeeded: usize,
+    /// Of those, jobs that reused an identical run instead of running.
+    pub reused: usize,
     /// Jobs failed.
     pub failed: usize,
     /// Jobs cancelled.
@@ -191,6 +193,7 @@ async fn drive_with<E: Executor>(
     Ok(Summary {
         ending,
         succeeded: count(JobState::Succeeded),
+        reused: store.reused_count(study_id).await?,
         failed: count(JobState::Failed),
         cancelled: count(JobState::Cancelled),
         unfinished: counts
@@ -481,7 +484,22 @@ impl<E: Executor> Driver<'_, E> {
                     continue;
                 }
             };
-            self.store.mark_rendered(job.id).await?;
+            let identity = match crate::identity::of_run(&run_dir, &command, &self.conditions()) {
+                Ok(identity) => identity,
+                Err(e) => {
+                    let message = format!(
+                        "cannot read the rendered run directory {}: {e}",
+                        run_dir.display()
+                    );
+                    self.report(job, &message);
+                    self.store.mark_failed(job.id, None, &message).await?;
+                    continue;
+                }
+            };
+            if self.reuse(job, &identity).await? {
+                continue;
+            }
+            self.store.mark_rendered(job.id, &identity).await?;
             let spec = LaunchSpec {
                 name: self.spec_name(job),
                 run_dir,
@@ -514,6 +532,62 @@ impl<E: Executor> Driver<'_, E> {
             }
         }
         Ok(())
+    }
+
+    /// What changes a run's result besides its files and program: the study's
+    /// `stop_when:`, which ends runs early.
+    fn conditions(&self) -> String {
+        match &self.study.stop_when {
+            Some(stop) => format!("{stop:?}"),
+            None => String::new(),
+        }
+    }
+
+    /// When the project already holds a succeeded run with `identity` (and the study
+    /// allows reuse), records `job` as that run — its files linked into the job's run
+    /// directory, its results copied — and returns true: the same deck is never run
+    /// twice. A run whose files cannot be linked is run again instead.
+    async fn reuse(&mut self, job: &JobRow, identity: &str) -> Result<bool, DriverError> {
+        if !self.study.reuse {
+            return Ok(false);
+        }
+        let Some(source) = self.store.succeeded_run(identity, job.id).await? else {
+            return Ok(false);
+        };
+        if let Err(e) = crate::identity::link_run(&source.run_dir, Path::new(&job.run_dir)) {
+            self.report(
+                job,
+                &format!(
+                    "the same run as {} but its files in {} cannot be linked ({e}); running it again",
+                    source.name,
+                    source.run_dir.display()
+                ),
+            );
+            return Ok(false);
+        }
+        self.store.mark_reused(job.id, identity, &source).await?;
+        let responses: Vec<(String, f64)> =
+            self.store.job_responses(job.id).await?.into_iter().collect();
+        let results = JobResults {
+            note: None,
+            responses,
+            series: Vec::new(),
+        };
+        self.report(
+            job,
+            &format!(
+                "reused {} (the same run, not run again): {}",
+                source.name,
+                self.shown(&results)
+            ),
+        );
+        self.prune(job);
+        if job.stage_kind() == Some(AIR_STAGE) {
+            if let Some(line) = self.settle_coupling(job, &results).await? {
+                self.report(job, &line);
+            }
+        }
+        Ok(true)
     }
 
     /// Asks the executor about every launched job at once and acts on the answers.
@@ -940,6 +1014,15 @@ impl<E: Executor> Driver<'_, E> {
     }
 
     fn report_success(&self, job: &JobRow, results: &JobResults) {
+        let took = now_s() - job.started_at.unwrap_or_else(now_s);
+        self.report(
+            job,
+            &format!("succeeded in {took:.1} s: {}", self.shown(results)),
+        );
+    }
+
+    /// The responses of `results` a job's line shows: the study's, not the solver's.
+    fn shown(&self, results: &JobResults) -> String {
         let shown: Vec<String> = results
             .responses
             .iter()
@@ -949,11 +1032,7 @@ impl<E: Executor> Driver<'_, E> {
             .filter(|(name, _)| !name.starts_with("solver_"))
             .map(|(name, value)| format!("{name} = {value:.4}"))
             .collect();
-        let took = now_s() - job.started_at.unwrap_or_else(now_s);
-        self.report(
-            job,
-            &format!("succeeded in {took:.1} s: {}", shown.join(", ")),
-        );
+        shown.join(", ")
     }
 }
 

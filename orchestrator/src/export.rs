@@ -1,7 +1,7 @@
 //! `orch export`: a study's runs as one table, for spreadsheets, pandas or R.
 //!
-//! One row per job: its round, purpose (`design` or `test`), point, replicate, seed
-//! and state, then every factor and every stored response as a named column whose
+//! One row per job: its round, purpose (`design` or `test`), point, replicate, seed,
+//! state, run identity and the run it reused (`study/job`, empty when it ran), then every factor and every stored response as a named column whose
 //! header carries the unit (`outlet_diameter [m]`). Written as CSV (RFC 4180: CRLF
 //! line ends, fields with a comma, quote or line break quoted, quotes doubled) or as
 //! JSON (an array of objects keyed by the same headers). `--series` writes the time
@@ -377,6 +377,8 @@ impl RunRows {
             "replicate",
             "seed",
             "state",
+            "identity",
+            "reused_from",
         ]
         .iter()
         .map(|s| s.to_string())
@@ -419,6 +421,8 @@ impl RunRows {
             Cell::Int(job.replicate),
             Cell::Int(job.seed),
             Cell::Text(job.state.to_string()),
+            job.identity.clone().map_or(Cell::Empty, Cell::Text),
+            job.reused_from.clone().map_or(Cell::Empty, Cell::Text),
         ];
         cells.extend(point.natural.iter().map(|v| Cell::Real(*v)));
         cells.extend(
@@ -553,7 +557,7 @@ mod tests {
         let jobs = store.jobs(id).await.unwrap();
         assert_eq!(jobs.len(), levels);
         for (k, job) in [(0, &jobs[0]), (1, &jobs[PAGE_LEN]), (2, &jobs[levels - 1])] {
-            store.mark_rendered(job.id).await.unwrap();
+            store.mark_rendered(job.id, &format!("test run {}", job.id)).await.unwrap();
             store.mark_running(job.id, "1:1", 0.0).await.unwrap();
             let results = JobResults {
                 responses: vec![(format!("r{k}"), k as f64 + 0.5)],
@@ -589,7 +593,7 @@ mod tests {
             .unwrap();
         let jobs = store.jobs(id).await.unwrap();
         for (k, job) in jobs.iter().enumerate().filter(|(k, _)| *k != 1) {
-            store.mark_rendered(job.id).await.unwrap();
+            store.mark_rendered(job.id, &format!("test run {}", job.id)).await.unwrap();
             store.mark_running(job.id, "1:1", 0.0).await.unwrap();
             let results = JobResults {
                 series: vec![

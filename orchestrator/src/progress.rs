@@ -157,6 +157,8 @@ mod tests {
             scheduler_state: None,
             stage: crate::store::DESIGN_STAGE.into(),
             after_job_id: None,
+            identity: None,
+            reused_from: None,
         }
     }
 

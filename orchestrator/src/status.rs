@@ -159,7 +159,11 @@ impl JobColumns<'_> {
                 .map(response_cell)
                 .unwrap_or_else(|| "-".into())
         }));
-        let error = job.error.clone().unwrap_or_default();
+        let error = match (&job.reused_from, &job.error) {
+            (Some(source), Some(error)) => format!("reused {source}; {error}"),
+            (Some(source), None) => format!("reused {source}"),
+            (None, error) => error.clone().unwrap_or_default(),
+        };
         row.push(if error.chars().count() > 100 {
             format!("{}…", error.chars().take(100).collect::<String>())
         } else {
@@ -419,6 +423,8 @@ fn job_json(d: &JobDetail, names: &[&str]) -> Value {
         "point": d.point,
         "replicate": d.job.replicate,
         "seed": d.job.seed,
+        "identity": d.job.identity,
+        "reused_from": d.job.reused_from,
         "coded": by_factor(names, &d.coded),
         "factors": by_factor(names, &d.natural),
         "responses": d.responses,
@@ -1426,6 +1432,8 @@ mod tests {
                 scheduler_state: None,
                 stage: "dem".into(),
                 after_job_id: None,
+                identity: None,
+                reused_from: None,
             },
             point: id,
             coded: vec![-1.0 + 0.5 * id as f64],
@@ -1478,7 +1486,7 @@ mod tests {
             (&jobs[2], -1234.5),
             (&jobs[levels - 2], 1.5e6),
         ] {
-            store.mark_rendered(job.id).await.unwrap();
+            store.mark_rendered(job.id, &format!("test run {}", job.id)).await.unwrap();
             store.mark_running(job.id, "1:1", 0.0).await.unwrap();
             let results = JobResults {
                 responses: vec![("exit_speed".into(), value)],
@@ -1492,7 +1500,7 @@ mod tests {
             .await
             .unwrap();
         if on_scheduler {
-            store.mark_rendered(jobs[3].id).await.unwrap();
+            store.mark_rendered(jobs[3].id, &format!("test run {}", jobs[3].id)).await.unwrap();
             store.mark_submitted(jobs[3].id, "4242").await.unwrap();
             store
                 .set_scheduler_state(jobs[3].id, "PENDING")

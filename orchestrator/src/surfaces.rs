@@ -5,7 +5,7 @@
 //! leave-one-out predictions, the leverages and the surface between the points — for
 //! `orch report` and for the warnings of `orch status` and `orch fit`.
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::{BTreeMap, HashMap, HashSet};
 
 use orch_metamodel::kriging::{Kernel, Trend};
 use orch_metamodel::surrogate::{ModelSpec, Surrogate};
@@ -173,7 +173,10 @@ pub fn runs_inside(own: &BTreeMap<i64, Vec<Run>>, round: i64, ranges: &[FactorRa
 }
 
 /// Succeeded runs on design points (not held-out test points), by the round that ran
-/// them, in job order; `responses_of` gives a job's responses in name order.
+/// them, in job order; `responses_of` gives a job's responses in name order. A run is
+/// one observation however many jobs share its identity: a job reused from an earlier
+/// one of the study (a point a later round revisits) is left out, since it is a copy,
+/// not a replicate.
 fn own_design_runs<J: JobLink>(
     points: &[PointRow],
     jobs: &[J],
@@ -187,11 +190,15 @@ fn own_design_runs<J: JobLink>(
     let mut out: BTreeMap<i64, Vec<Run>> = BTreeMap::new();
     // A coupled chain's later DEM and CFD runs replace its earlier ones.
     let superseded = crate::coupling::superseded(jobs);
+    let mut identities: HashSet<&str> = HashSet::new();
     for job in jobs {
         let Some(point) = points.get(&job.point_id()) else {
             continue;
         };
         if job.state() != JobState::Succeeded || superseded.contains(&job.id()) {
+            continue;
+        }
+        if job.identity().is_some_and(|identity| !identities.insert(identity)) {
             continue;
         }
         out.entry(point.round).or_default().push(Run {

@@ -3,7 +3,8 @@
 //! that runs them, and the responses the study declares ([`DeclaredResponse`]).
 //!
 //! Templates see the case's values and nothing else: parameters (numbers and text),
-//! `seed` and `cores`. Tera's `get_env` is refused and a template can include only the
+//! `seed`, `seed_prime` (a prime above 10000 from the seed, as LIGGGHTS' random
+//! seeds must be) and `cores`. Tera's `get_env` is refused and a template can include only the
 //! case's other templates (there is no file loader), so nothing from orch's environment
 //! or from outside the study folder reaches a run directory.
 
@@ -199,6 +200,7 @@ impl Simulation for CustomDeck {
             env: BTreeMap::new(),
             cores: self.command.cores,
             mpi: false,
+            same_result_on_any_cores: false,
             log_file: self.command.log_file.clone(),
         }
     }

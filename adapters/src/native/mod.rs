@@ -77,7 +77,10 @@ fn command(case_file: &str, cores: usize) -> CommandSpec {
     if cores > 1 {
         args.extend(["--threads", &threads]);
     }
-    solver_command(program_path(), &args, cores, LOG_FILE)
+    CommandSpec {
+        same_result_on_any_cores: true,
+        ..solver_command(program_path(), &args, cores, LOG_FILE)
+    }
 }
 
 /// The log's loop time, work and kinetic energy, and the kernel's own crossings.

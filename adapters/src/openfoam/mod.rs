@@ -457,6 +457,7 @@ pub fn command(case: &Case) -> CommandSpec {
         cores: case.get("cores").round() as usize,
         // Its ranks are started by Allrun's own mpirun; submitted as one task.
         mpi: false,
+        same_result_on_any_cores: false,
         log_file: LOG_FILE.to_string(),
     }
 }

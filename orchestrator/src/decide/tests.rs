@@ -31,6 +31,8 @@ fn job(id: i64, state: JobState) -> JobRow {
         scheduler_state: None,
         stage: DESIGN_STAGE.to_string(),
         after_job_id: None,
+        identity: None,
+        reused_from: None,
     }
 }
 

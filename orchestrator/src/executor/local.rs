@@ -230,6 +230,7 @@ mod tests {
                 env: Default::default(),
                 cores: 1,
                 mpi: false,
+                same_result_on_any_cores: false,
                 log_file: STDOUT_FILE.into(),
             },
         }

@@ -235,7 +235,10 @@ async fn design_table(store: &Store, data: &Data<'_>, round: i64) -> Result<Stri
                 escape(&point.purpose),
                 point.idx.to_string(),
                 job.replicate.to_string(),
-                escape(job.state.as_str()),
+                escape(&match &job.reused_from {
+                    Some(source) => format!("{} (reused {source}, not run again)", job.state),
+                    None => job.state.to_string(),
+                }),
             ];
             row.extend(point.natural.iter().map(|v| number(*v)));
             row

@@ -38,6 +38,7 @@ pub use rows::{
 };
 pub use series::{SeriesPages, SeriesPoint};
 
+use crate::plan::{self, PlannedPoint};
 use crate::study::Study;
 
 /// Name of the database file inside a project directory.
@@ -139,6 +140,17 @@ pub struct JobResults {
     /// Why a response the study asks for is missing from a run that succeeded (kept
     /// in the job's `error`, shown by status).
     pub note: Option<String>,
+}
+
+/// A succeeded run that a job with the same identity reuses.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ReuseSource {
+    /// Its job id.
+    pub job_id: i64,
+    /// `study/job`.
+    pub name: String,
+    /// Its run directory.
+    pub run_dir: PathBuf,
 }
 
 /// The open store of one project directory.
@@ -296,23 +308,11 @@ impl Store {
             .map_err(query_error("record the round's box"))?;
         }
         let runs_dir = runs_root.join(&study.name);
-        let design = PointPurpose::Design;
-        insert_points_and_jobs(
-            &mut tx,
-            study,
-            study_id,
-            0,
-            &study.points,
-            design,
-            &runs_dir,
-        )
-        .await?;
         let ranges: Vec<_> = study.factors.iter().map(|f| f.range).collect();
         let tests = study.test_points(0, &ranges);
-        let test = PointPurpose::Test {
-            first_idx: study.points.len(),
-        };
-        insert_points_and_jobs(&mut tx, study, study_id, 0, &tests, test, &runs_dir).await?;
+        for planned in plan::plan_round(study, 0, &study.points, &tests) {
+            insert_planned(&mut tx, study_id, 0, &planned, &runs_dir).await?;
+        }
         tx.commit()
             .await
             .map_err(query_error("commit the new study"))?;
@@ -977,17 +977,120 @@ impl Store {
             .map_err(query_error("commit a job transition"))
     }
 
-    /// pending → rendered.
-    pub async fn mark_rendered(&self, job_id: i64) -> Result<(), StoreError> {
+    /// pending → rendered, with the run's identity ([`crate::identity`]).
+    pub async fn mark_rendered(&self, job_id: i64, identity: &str) -> Result<(), StoreError> {
         self.transition_alone(
             job_id,
             &[JobState::Pending],
             JobState::Rendered,
-            "",
-            vec![],
+            "identity = ?",
+            vec![Bind::Text(identity.to_string())],
             None,
         )
         .await
+    }
+
+    /// A succeeded run of the project (any study) with identity `identity`, other than
+    /// `job_id`: one that ran, before one that was itself reused.
+    pub async fn succeeded_run(
+        &self,
+        identity: &str,
+        job_id: i64,
+    ) -> Result<Option<ReuseSource>, StoreError> {
+        let row: Option<(i64, String, String)> = sqlx::query_as(
+            "SELECT j.id, s.name || '/' || j.name, j.run_dir FROM jobs j JOIN studies s ON s.id = j.study_id
+             WHERE j.identity = ? AND j.state = 'succeeded' AND j.id <> ?
+             ORDER BY j.reused_from_job IS NOT NULL, j.id LIMIT 1",
+        )
+        .bind(identity)
+        .bind(job_id)
+        .fetch_optional(&self.pool)
+        .await
+        .map_err(query_error("look for an identical run"))?;
+        Ok(row.map(|(job_id, name, run_dir)| ReuseSource {
+            job_id,
+            name,
+            run_dir: PathBuf::from(run_dir),
+        }))
+    }
+
+    /// pending → succeeded without running: the job is the run `source`, whose
+    /// responses and series it takes a copy of, in one transaction.
+    pub async fn mark_reused(
+        &self,
+        job_id: i64,
+        identity: &str,
+        source: &ReuseSource,
+    ) -> Result<(), StoreError> {
+        let mut tx = self.begin_write().await?;
+        let now = now_s();
+        let note = format!("reused from {}", source.name);
+        self.transition(
+            &mut tx,
+            job_id,
+            &[JobState::Pending],
+            JobState::Succeeded,
+            "identity = ?, reused_from_job = ?, reused_from = ?, started_at = ?, finished_at = ?,
+             exit_code = (SELECT exit_code FROM jobs WHERE id = ?), error = (SELECT error FROM jobs WHERE id = ?)",
+            vec![
+                Bind::Text(identity.to_string()),
+                Bind::Int(source.job_id),
+                Bind::Text(source.name.clone()),
+                Bind::Real(now),
+                Bind::Real(now),
+                Bind::Int(source.job_id),
+                Bind::Int(source.job_id),
+            ],
+            Some(&note),
+        )
+        .await?;
+        for table in ["responses", "series"] {
+            sqlx::query(&format!("DELETE FROM {table} WHERE job_id = ?"))
+                .bind(job_id)
+                .execute(&mut *tx)
+                .await
+                .map_err(query_error("clear old results"))?;
+        }
+        sqlx::query("INSERT INTO responses (job_id, name, value) SELECT ?, name, value FROM responses WHERE job_id = ?")
+            .bind(job_id)
+            .bind(source.job_id)
+            .execute(&mut *tx)
+            .await
+            .map_err(query_error("copy a reused run's responses"))?;
+        sqlx::query("INSERT INTO series (job_id, name, t, value) SELECT ?, name, t, value FROM series WHERE job_id = ?")
+            .bind(job_id)
+            .bind(source.job_id)
+            .execute(&mut *tx)
+            .await
+            .map_err(query_error("copy a reused run's series"))?;
+        tx.commit()
+            .await
+            .map_err(query_error("commit a reused run"))
+    }
+
+    /// Jobs of `study_id` that reused a run instead of running.
+    pub async fn reused_count(&self, study_id: i64) -> Result<usize, StoreError> {
+        let n: i64 = sqlx::query_scalar(
+            "SELECT COUNT(*) FROM jobs WHERE study_id = ? AND reused_from IS NOT NULL",
+        )
+        .bind(study_id)
+        .fetch_one(&self.pool)
+        .await
+        .map_err(query_error("count reused runs"))?;
+        Ok(n as usize)
+    }
+
+    /// `study/job` of every job of another study that reused a run of `study_id`.
+    pub async fn reusers_of(&self, study_id: i64) -> Result<Vec<String>, StoreError> {
+        sqlx::query_scalar(
+            "SELECT s.name || '/' || j.name FROM jobs j JOIN studies s ON s.id = j.study_id
+             JOIN jobs source ON source.id = j.reused_from_job
+             WHERE source.study_id = ?1 AND j.study_id <> ?1 ORDER BY j.id",
+        )
+        .bind(study_id)
+        .fetch_all(&self.pool)
+        .await
+        .map_err(query_error("find the runs other studies reused"))
     }
 
     /// rendered → running with the executor's handle; counts an attempt.
@@ -1211,48 +1314,29 @@ async fn lock_exclusively(path: &Path) -> std::io::Result<nix::fcntl::Flock<std:
     .map_err(std::io::Error::other)?
 }
 
-/// Whether points are fitted or held out to test the fit.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum PointPurpose {
-    /// Design points, fitted; jobs `p<i>r<replicate>`.
-    Design,
-    /// Test points, held out; jobs `t<i>r<replicate>`, numbered in the round after the
-    /// design points from `first_idx`.
-    Test {
-        /// Index of the first test point within the round.
-        first_idx: usize,
-    },
-}
-
-/// Inserts a round's points and one job per point and replicate. Round 0's jobs are
-/// `p<point>r<replicate>` (test points `t…`), later rounds' `r<round>-p<point>r<replicate>`.
-pub(crate) async fn insert_points_and_jobs(
+/// Inserts the points of `planned` (one round's, as [`crate::plan::plan_points`]
+/// planned them) and their jobs as they are: the store decides nothing about them.
+pub(crate) async fn insert_planned(
     tx: &mut sqlx::SqliteConnection,
-    study: &Study,
     study_id: i64,
     round: i64,
-    points: &[crate::study::DesignPoint],
-    purpose: PointPurpose,
+    planned: &[PlannedPoint<'_>],
     runs_dir: &Path,
 ) -> Result<(), StoreError> {
-    let (first_idx, letter, purpose_name) = match purpose {
-        PointPurpose::Design => (0, 'p', "design"),
-        PointPurpose::Test { first_idx } => (first_idx, 't', "test"),
-    };
-    for (number, point) in points.iter().enumerate() {
-        let idx = first_idx + number;
+    for point in planned {
         let point_id: i64 = sqlx::query(
             "INSERT INTO points (study_id, round, idx, purpose) VALUES (?, ?, ?, ?) RETURNING id",
         )
         .bind(study_id)
         .bind(round)
-        .bind(idx as i64)
-        .bind(purpose_name)
+        .bind(point.idx as i64)
+        .bind(point.purpose.as_str())
         .fetch_one(&mut *tx)
         .await
         .map_err(query_error("record a design point"))?
         .get(0);
-        for (factor_idx, (coded, natural)) in point.coded.iter().zip(&point.natural).enumerate() {
+        let values = point.point.coded.iter().zip(&point.point.natural);
+        for (factor_idx, (coded, natural)) in values.enumerate() {
             sqlx::query("INSERT INTO point_values (point_id, factor_idx, coded, natural) VALUES (?, ?, ?, ?)")
                 .bind(point_id)
                 .bind(factor_idx as i64)
@@ -1262,70 +1346,26 @@ pub(crate) async fn insert_points_and_jobs(
                 .await
                 .map_err(query_error("record a design point"))?;
         }
-        for replicate in 0..study.replicates {
-            let prefix = if round == 0 {
-                String::new()
-            } else {
-                format!("r{round}-")
-            };
-            let name = format!("{prefix}{letter}{number:03}r{replicate}");
-            let run_dir = runs_dir.join(&name);
-            let seed = study.job_seed(round as usize * 100_000 + idx, replicate);
-            let dem_job: i64 = sqlx::query(
-                "INSERT INTO jobs (study_id, point_id, replicate, name, seed, state, run_dir)
-                 VALUES (?, ?, ?, ?, ?, 'pending', ?) RETURNING id",
+        let mut ids: Vec<i64> = Vec::with_capacity(point.jobs.len());
+        for job in &point.jobs {
+            let after = job.after.map(|index| ids[index]);
+            let id: i64 = sqlx::query(
+                "INSERT INTO jobs (study_id, point_id, replicate, name, seed, state, run_dir, stage, after_job_id)
+                 VALUES (?, ?, ?, ?, ?, 'pending', ?, ?, ?) RETURNING id",
             )
             .bind(study_id)
             .bind(point_id)
-            .bind(replicate as i64)
-            .bind(&name)
-            .bind(seed as i64)
-            .bind(run_dir.display().to_string())
+            .bind(job.replicate as i64)
+            .bind(&job.name)
+            .bind(job.seed as i64)
+            .bind(runs_dir.join(&job.name).display().to_string())
+            .bind(job.stage)
+            .bind(after)
             .fetch_one(&mut *tx)
             .await
             .map_err(query_error("record a job"))?
             .get(0);
-            let stages = match purpose {
-                PointPurpose::Design => study.stages.as_slice(),
-                PointPurpose::Test { .. } => &[],
-            };
-            let mut chained: Vec<(String, &str)> = stages
-                .iter()
-                .map(|stage| (format!("{name}-{}", stage.stage.kind()), stage.stage.kind()))
-                .collect();
-            let coupled = study.coupling.as_ref().filter(|_| !stages.is_empty());
-            let mut chain_tail = None;
-            if let Some(coupling) = coupled {
-                chained.extend(crate::coupling::chain(&name, coupling.iterations));
-            }
-            for (index, (stage_name, kind)) in chained.iter().enumerate() {
-                // Stages follow the design job; a coupling chain follows its first
-                // `cfd` job, each job the one before it.
-                let after = if index < stages.len() {
-                    dem_job
-                } else {
-                    *chain_tail.get_or_insert(dem_job)
-                };
-                let id: i64 = sqlx::query(
-                    "INSERT INTO jobs (study_id, point_id, replicate, name, seed, state, run_dir, stage, after_job_id)
-                     VALUES (?, ?, ?, ?, ?, 'pending', ?, ?, ?) RETURNING id",
-                )
-                .bind(study_id)
-                .bind(point_id)
-                .bind(replicate as i64)
-                .bind(stage_name)
-                .bind(seed as i64)
-                .bind(runs_dir.join(stage_name).display().to_string())
-                .bind(*kind)
-                .bind(after)
-                .fetch_one(&mut *tx)
-                .await
-                .map_err(query_error("record a stage"))?
-                .get(0);
-                if index >= stages.len() || *kind == orch_adapters::openfoam::KIND {
-                    chain_tail = Some(id);
-                }
-            }
+            ids.push(id);
         }
     }
     Ok(())

@@ -455,30 +455,9 @@ impl Store {
                     .await
                     .map_err(query_error("record the next round's box"))?;
             }
-            let design = super::PointPurpose::Design;
-            super::insert_points_and_jobs(
-                &mut tx,
-                study,
-                study_id,
-                round + 1,
-                points,
-                design,
-                runs_dir,
-            )
-            .await?;
-            let test = super::PointPurpose::Test {
-                first_idx: points.len(),
-            };
-            super::insert_points_and_jobs(
-                &mut tx,
-                study,
-                study_id,
-                round + 1,
-                tests,
-                test,
-                runs_dir,
-            )
-            .await?;
+            for planned in crate::plan::plan_round(study, round + 1, points, tests) {
+                super::insert_planned(&mut tx, study_id, round + 1, &planned, runs_dir).await?;
+            }
         }
         tx.commit()
             .await

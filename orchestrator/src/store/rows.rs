@@ -358,6 +358,11 @@ pub struct JobRow {
     pub stage: String,
     /// The job this one waits for and reads its inputs from (stages).
     pub after_job_id: Option<i64>,
+    /// The run's identity ([`crate::identity`]), once rendered; none for jobs of
+    /// earlier versions.
+    pub identity: Option<String>,
+    /// `study/job` of the run this job reused instead of running, if it did.
+    pub reused_from: Option<String>,
 }
 
 /// `jobs.stage` of a design job: the simulation of a design point itself.
@@ -396,6 +401,8 @@ impl<'r> sqlx::FromRow<'r, SqliteRow> for JobRow {
             scheduler_state: row.try_get("scheduler_state")?,
             stage: row.try_get("stage")?,
             after_job_id: row.try_get("after_job_id")?,
+            identity: row.try_get("identity")?,
+            reused_from: row.try_get("reused_from")?,
         })
     }
 }
@@ -417,6 +424,8 @@ pub trait JobLink {
     fn stage(&self) -> &str;
     /// The job this one follows in its chain.
     fn after_job_id(&self) -> Option<i64>;
+    /// The run's identity: jobs that share one are one observation.
+    fn identity(&self) -> Option<&str>;
 }
 
 /// Implements [`JobLink`] for a row type whose fields have the trait's names.
@@ -440,6 +449,9 @@ macro_rules! job_link_from_fields {
             }
             fn after_job_id(&self) -> Option<i64> {
                 self.after_job_id
+            }
+            fn identity(&self) -> Option<&str> {
+                self.identity.as_deref()
             }
         }
     };
@@ -465,11 +477,13 @@ pub struct JobLinkRow {
     pub stage: Box<str>,
     /// The job this one follows.
     pub after_job_id: Option<i64>,
+    /// The run's identity.
+    pub identity: Option<Box<str>>,
 }
 
 impl JobLinkRow {
     /// The columns a [`JobLinkRow`] is read from, for a `SELECT`.
-    pub const COLUMNS: &'static str = "id, point_id, name, state, stage, after_job_id";
+    pub const COLUMNS: &'static str = "id, point_id, name, state, stage, after_job_id, identity";
 }
 
 impl<'r> sqlx::FromRow<'r, SqliteRow> for JobLinkRow {
@@ -482,6 +496,9 @@ impl<'r> sqlx::FromRow<'r, SqliteRow> for JobLinkRow {
             state: state_of(row, "jobs", id)?,
             stage: row.try_get::<String, _>("stage")?.into_boxed_str(),
             after_job_id: row.try_get("after_job_id")?,
+            identity: row
+                .try_get::<Option<String>, _>("identity")?
+                .map(String::into_boxed_str),
         })
     }
 }

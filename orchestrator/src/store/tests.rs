@@ -55,7 +55,7 @@ async fn a_study_is_recorded_with_points_and_jobs() {
 async fn a_job_moves_through_its_states_and_keeps_its_results() {
     let (_dir, store, id) = store_with_study().await;
     let job = store.jobs(id).await.unwrap()[0].id;
-    store.mark_rendered(job).await.unwrap();
+    store.mark_rendered(job, &format!("test run {}", job)).await.unwrap();
     store.mark_running(job, "123:456", 10.0).await.unwrap();
     let results = JobResults {
         responses: vec![("discharge_rate".into(), 0.15)],
@@ -100,7 +100,7 @@ async fn interruption_refunds_the_attempt_and_loss_does_not() {
     let (_dir, store, id) = store_with_study().await;
     let job = store.jobs(id).await.unwrap()[0].id;
     for refund in [true, false] {
-        store.mark_rendered(job).await.unwrap();
+        store.mark_rendered(job, &format!("test run {}", job)).await.unwrap();
         store.mark_running(job, "1:1", 0.0).await.unwrap();
         store.requeue(job, "put back", refund).await.unwrap();
     }
@@ -344,9 +344,9 @@ async fn a_tick_reads_the_open_jobs_and_only_the_first_pending_ones_it_could_act
     let (_dir, store, id) = store_with_study().await;
     let jobs = store.jobs(id).await.unwrap();
     let (running, done) = (jobs[0].id, jobs[1].id);
-    store.mark_rendered(running).await.unwrap();
+    store.mark_rendered(running, &format!("test run {}", running)).await.unwrap();
     store.mark_running(running, "1:2", 1.0).await.unwrap();
-    store.mark_rendered(done).await.unwrap();
+    store.mark_rendered(done, &format!("test run {}", done)).await.unwrap();
     store.mark_running(done, "3:4", 1.0).await.unwrap();
     store
         .mark_succeeded(done, 0, &JobResults::default())
@@ -451,7 +451,7 @@ async fn a_study_s_jobs_are_read_at_chosen_positions_with_their_responses() {
             series: Vec::new(),
             note: None,
         };
-        store.mark_rendered(job.id).await.unwrap();
+        store.mark_rendered(job.id, &format!("test run {}", job.id)).await.unwrap();
         store.mark_running(job.id, "1:1", 1.0).await.unwrap();
         store.mark_succeeded(job.id, 0, &results).await.unwrap();
     }
@@ -506,7 +506,7 @@ async fn the_jobs_of_each_series_are_listed_by_id_and_named_on_demand() {
             series,
             note: None,
         };
-        store.mark_rendered(job.id).await.unwrap();
+        store.mark_rendered(job.id, &format!("test run {}", job.id)).await.unwrap();
         store.mark_running(job.id, "1:1", 1.0).await.unwrap();
         store.mark_succeeded(job.id, 0, &results).await.unwrap();
     }
@@ -553,7 +553,7 @@ async fn the_jobs_of_each_series_are_read_across_pages() {
                 .collect(),
             note: None,
         };
-        store.mark_rendered(job.id).await.unwrap();
+        store.mark_rendered(job.id, &format!("test run {}", job.id)).await.unwrap();
         store.mark_running(job.id, "1:1", 1.0).await.unwrap();
         store.mark_succeeded(job.id, 0, &results).await.unwrap();
     }
@@ -570,7 +570,7 @@ async fn the_jobs_of_each_series_are_read_across_pages() {
 async fn a_study_s_job_links_are_its_jobs_link_fields() {
     let (_dir, store, id) = store_with_study().await;
     let first = store.jobs(id).await.unwrap()[0].id;
-    store.mark_rendered(first).await.unwrap();
+    store.mark_rendered(first, &format!("test run {}", first)).await.unwrap();
     store.mark_running(first, "1:1", 1.0).await.unwrap();
     store
         .mark_failed(first, Some(1), "the solver crashed")

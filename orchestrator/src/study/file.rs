@@ -92,6 +92,11 @@ pub struct StudyFile {
     /// record); failed jobs keep everything.
     #[serde(default)]
     pub keep: crate::keep::Keep,
+    /// Whether a job whose run already succeeded in the project (the same rendered
+    /// files, program, seed and cores) takes that run's results instead of running
+    /// again (default `true`).
+    #[serde(default)]
+    pub reuse: Option<bool>,
 }
 
 /// `coupling:` of a study: the staggered DEM ↔ air iteration.

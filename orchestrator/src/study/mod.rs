@@ -341,6 +341,10 @@ pub struct Study {
     pub fail_on_missing_response: bool,
     /// What a succeeded job's run directory keeps once its results are stored (`keep:`).
     pub keep: crate::keep::Keep,
+    /// True (the default) when a job whose run already succeeded in the project — the
+    /// same rendered files, program, seed and cores — takes that run's results instead
+    /// of running again; `reuse: false` or `orch submit --no-reuse` runs every job.
+    pub reuse: bool,
     /// Stages chained after every design job, in the order of [`orch_adapters::STAGES`].
     pub stages: Vec<StageConfig>,
     /// When a design job is asked to stop before its end time (`stop_when:`).
@@ -602,14 +606,6 @@ impl Study {
             text: self.fixed_text.clone(),
             seed,
         }
-    }
-
-    /// Seed of the job for `point_index` and `replicate`, derived from the base seed.
-    pub fn job_seed(&self, point_index: usize, replicate: u32) -> u64 {
-        self.seed
-            .wrapping_mul(1_000_003)
-            .wrapping_add(point_index as u64 * 1_000)
-            .wrapping_add(replicate as u64)
     }
 }
 
@@ -1432,6 +1428,7 @@ impl Checker<'_> {
             fail_on_missing_response: file.missing_response
                 == Some(file::MissingResponseFile::Fail),
             keep: file.keep,
+            reuse: file.reuse.unwrap_or(true),
             file_text: text.to_string(),
             inputs,
             file_sha256,

@@ -319,6 +319,7 @@ mod tests {
                 env: BTreeMap::from([("OMP_NUM_THREADS".to_string(), "1".to_string())]),
                 cores: 1,
                 mpi: false,
+                same_result_on_any_cores: false,
                 log_file: "log.native".into(),
             },
         }
@@ -381,6 +382,7 @@ mod tests {
                     env: BTreeMap::new(),
                     cores: 1,
                     mpi: false,
+                    same_result_on_any_cores: false,
                     log_file: "log".into(),
                 },
             };
@@ -441,6 +443,7 @@ mod tests {
                 env: BTreeMap::from([("OMPI_ALLOW_RUN_AS_ROOT".to_string(), "1".to_string())]),
                 cores: 2,
                 mpi: true,
+                same_result_on_any_cores: false,
                 log_file: "log.liggghts".into(),
             },
             ..spec()

@@ -1,0 +1,317 @@
+//! The plan: a round's design points turned into jobs, as data — names, seeds, kinds and
+//! the chain each job waits on — before anything is written. The store inserts what the
+//! plan says and decides nothing; this module reads no file, clock or database.
+//!
+//! **Seeds.** A job's solver seed is a keyed hash (SHA-256) of the study's `seed:`, the
+//! point's purpose, its resolved case (every parameter, rounded to 12 significant
+//! digits, and every text value), the point's occurrence among equal cases of its
+//! design, the replicate and the job's random stream. Nothing in it wraps or
+//! overflows, so two jobs share a seed only when they are the same run:
+//!
+//! - the same case at the same occurrence and replicate, in any round or study with the
+//!   same study seed, gets the same seed, renders the same deck and is reused (one
+//!   observation) instead of run again;
+//! - replicates and repeated points inside one design (a central composite design's
+//!   centre runs) get distinct seeds and are true replicates.
+//!
+//! The seed is 63 bits wide, so that it fits SQLite's and TOML's signed integers.
+
+use sha2::{Digest, Sha256};
+
+use crate::coupling::{self, AIR_STAGE};
+use crate::store::DESIGN_STAGE;
+use crate::study::{DesignPoint, Study};
+
+/// Whether points are fitted or held out to test the fit.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PointPurpose {
+    /// Design points, fitted; jobs `p<i>r<replicate>`.
+    Design,
+    /// Test points, held out; jobs `t<i>r<replicate>`, numbered in the round after the
+    /// design points from `first_idx`.
+    Test {
+        /// Index of the first test point within the round.
+        first_idx: usize,
+    },
+}
+
+impl PointPurpose {
+    /// `points.purpose` in the store.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            PointPurpose::Design => "design",
+            PointPurpose::Test { .. } => "test",
+        }
+    }
+
+    /// The letter that starts its jobs' names.
+    fn letter(self) -> char {
+        match self {
+            PointPurpose::Design => 'p',
+            PointPurpose::Test { .. } => 't',
+        }
+    }
+
+    /// Index of its first point within the round.
+    fn first_idx(self) -> usize {
+        match self {
+            PointPurpose::Design => 0,
+            PointPurpose::Test { first_idx } => first_idx,
+        }
+    }
+}
+
+/// One design point of a round with the jobs it runs.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlannedPoint<'a> {
+    /// Index within the round.
+    pub idx: usize,
+    /// Fitted or held out.
+    pub purpose: PointPurpose,
+    /// Its coordinates.
+    pub point: &'a DesignPoint,
+    /// Its jobs: per replicate the design job, then its stages and coupling chain.
+    pub jobs: Vec<PlannedJob>,
+}
+
+/// One job of a planned point.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct PlannedJob {
+    /// Name within the study (`p000r0`, `r1-p003r2`, `p000r0-cfd`).
+    pub name: String,
+    /// Replicate number of its design job.
+    pub replicate: u32,
+    /// The solver seed (63 bits).
+    pub seed: u64,
+    /// [`DESIGN_STAGE`] or the kind of stage it is.
+    pub stage: &'static str,
+    /// The job of the same point it waits for, as an index into [`PlannedPoint::jobs`].
+    pub after: Option<usize>,
+}
+
+/// The jobs of `points` of `round`, as the study's replicates, stages and coupling ask.
+/// Round 0's jobs are `p<point>r<replicate>` (test points `t…`), later rounds'
+/// `r<round>-p<point>r<replicate>`.
+pub fn plan_points<'a>(
+    study: &Study,
+    round: i64,
+    points: &'a [DesignPoint],
+    purpose: PointPurpose,
+) -> Vec<PlannedPoint<'a>> {
+    let prefix = if round == 0 {
+        String::new()
+    } else {
+        format!("r{round}-")
+    };
+    let stages = match purpose {
+        PointPurpose::Design => study.stages.as_slice(),
+        PointPurpose::Test { .. } => &[],
+    };
+    let coupled = study.coupling.as_ref().filter(|_| !stages.is_empty());
+    let mut occurrences: std::collections::HashMap<String, u32> = Default::default();
+    let mut planned = Vec::with_capacity(points.len());
+    for (number, point) in points.iter().enumerate() {
+        let case = case_key(study, point);
+        let occurrence = occurrences.entry(case.clone()).or_default();
+        let key = SeedKey {
+            purpose: purpose.as_str(),
+            case: &case,
+            occurrence: *occurrence,
+            replicate: 0,
+            stream: DESIGN_STAGE,
+        };
+        *occurrence += 1;
+        let mut jobs = Vec::new();
+        for replicate in 0..study.replicates {
+            let key = SeedKey { replicate, ..key };
+            let name = format!("{prefix}{}{number:03}r{replicate}", purpose.letter());
+            let design_job = jobs.len();
+            jobs.push(PlannedJob {
+                name: name.clone(),
+                replicate,
+                seed: job_seed(study.seed, &key),
+                stage: DESIGN_STAGE,
+                after: None,
+            });
+            // Stages follow the design job; a coupling chain follows its first `cfd`
+            // job, each job the one before it.
+            let mut chain_tail = None;
+            for stage in stages {
+                let kind = stage.stage.kind();
+                jobs.push(PlannedJob {
+                    name: format!("{name}-{kind}"),
+                    replicate,
+                    seed: job_seed(study.seed, &SeedKey { stream: kind, ..key }),
+                    stage: kind,
+                    after: Some(design_job),
+                });
+                if kind == orch_adapters::openfoam::KIND {
+                    chain_tail = Some(jobs.len() - 1);
+                }
+            }
+            if let Some(coupling) = coupled {
+                for (chained, kind) in coupling::chain(&name, coupling.iterations) {
+                    // A DEM run in air keeps its design job's seed: the same particles
+                    // in another air, so that the change the coupling watches is the
+                    // air's, not the insertion's (common random numbers).
+                    let stream = if kind == AIR_STAGE { DESIGN_STAGE } else { kind };
+                    jobs.push(PlannedJob {
+                        name: chained,
+                        replicate,
+                        seed: job_seed(study.seed, &SeedKey { stream, ..key }),
+                        stage: kind,
+                        after: Some(chain_tail.unwrap_or(design_job)),
+                    });
+                    chain_tail = Some(jobs.len() - 1);
+                }
+            }
+        }
+        planned.push(PlannedPoint {
+            idx: purpose.first_idx() + number,
+            purpose,
+            point,
+            jobs,
+        });
+    }
+    planned
+}
+
+/// A round's design points and held-out test points, planned: the design's first,
+/// then the tests', numbered after the design's.
+pub fn plan_round<'a>(
+    study: &Study,
+    round: i64,
+    design: &'a [DesignPoint],
+    tests: &'a [DesignPoint],
+) -> [Vec<PlannedPoint<'a>>; 2] {
+    let test = PointPurpose::Test {
+        first_idx: design.len(),
+    };
+    [
+        plan_points(study, round, design, PointPurpose::Design),
+        plan_points(study, round, tests, test),
+    ]
+}
+
+/// What a job's seed is derived from, besides the study's seed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SeedKey<'a> {
+    /// `design` or `test`: a held-out run is never a design run's copy.
+    pub purpose: &'a str,
+    /// The resolved case, as [`case_key`] writes it.
+    pub case: &'a str,
+    /// How many points of the same design came before with the same case.
+    pub occurrence: u32,
+    /// Replicate number.
+    pub replicate: u32,
+    /// The random stream: [`DESIGN_STAGE`] or a stage kind.
+    pub stream: &'a str,
+}
+
+/// The seed of the job `key` of a study seeded `study_seed`: the first 63 bits of
+/// SHA-256 over both, each field length-prefixed so that no two keys write the same
+/// bytes.
+pub fn job_seed(study_seed: u64, key: &SeedKey<'_>) -> u64 {
+    let mut hash = Sha256::new();
+    hash.update(b"orch job seed v1");
+    hash.update(study_seed.to_le_bytes());
+    for field in [key.purpose, key.case, key.stream] {
+        hash.update((field.len() as u64).to_le_bytes());
+        hash.update(field.as_bytes());
+    }
+    hash.update(key.occurrence.to_le_bytes());
+    hash.update(key.replicate.to_le_bytes());
+    let digest = hash.finalize();
+    let bytes: [u8; 8] = digest[..8].try_into().expect("SHA-256 has 32 bytes");
+    u64::from_le_bytes(bytes) >> 1
+}
+
+/// The case of `point` as text: every resolved parameter in name order with 12
+/// significant digits (so that the same point reached through another round's box,
+/// with a different last bit, is the same case), then every text value.
+pub fn case_key(study: &Study, point: &DesignPoint) -> String {
+    use std::fmt::Write;
+    let case = study.case_at(&point.natural, 0);
+    let mut key = String::new();
+    for (name, value) in &case.parameters.0 {
+        let _ = write!(key, "{name}={value:.11e};");
+    }
+    for (name, value) in &case.text {
+        let _ = write!(key, "{name}:{value};");
+    }
+    key
+}
+
+#[cfg(test)]
+mod tests {
+    use std::collections::HashSet;
+
+    use proptest::prelude::*;
+
+    use super::*;
+
+    fn key<'a>(case: &'a str, occurrence: u32, replicate: u32, stream: &'a str) -> SeedKey<'a> {
+        SeedKey {
+            purpose: "design",
+            case,
+            occurrence,
+            replicate,
+            stream,
+        }
+    }
+
+    #[test]
+    fn a_hundred_thousand_jobs_of_one_project_have_distinct_seeds() {
+        // 5 rounds × 200 points × 50 replicates × 2 streams, and a second study seed:
+        // the shape of a large project, 2·10^5 jobs.
+        let mut seen = HashSet::new();
+        let mut jobs = 0;
+        for study_seed in [0_u64, 1] {
+            for round in 0..5 {
+                for point in 0..200 {
+                    let case = format!("outlet={:.11e};round={round}", 0.02 + point as f64 * 1e-5);
+                    for replicate in 0..50 {
+                        for stream in ["dem", "cfd"] {
+                            let seed = job_seed(study_seed, &key(&case, 0, replicate, stream));
+                            assert!(seed <= i64::MAX as u64);
+                            seen.insert(seed);
+                            jobs += 1;
+                        }
+                    }
+                }
+            }
+        }
+        assert_eq!(seen.len(), jobs, "two jobs share a seed");
+    }
+
+    #[test]
+    fn replicates_past_a_thousand_and_rounds_past_a_million_do_not_collide() {
+        // The arithmetic seeds of earlier versions wrapped: point 1 replicate 0 was
+        // point 0 replicate 1000, and a round's offset vanished modulo 10^6.
+        let a = job_seed(7, &key("x=1", 0, 1000, "dem"));
+        let b = job_seed(7, &key("x=1", 1, 0, "dem"));
+        let c = job_seed(7, &key("x=1", 0, 0, "dem"));
+        assert!(a != b && b != c && a != c);
+    }
+
+    proptest! {
+        #[test]
+        fn every_field_of_the_key_changes_the_seed(
+            study_seed in any::<u64>(),
+            case in "[a-z]{1,8}=[0-9]{1,4}",
+            occurrence in 0_u32..100,
+            replicate in 0_u32..100,
+        ) {
+            let base = key(&case, occurrence, replicate, "dem");
+            let seed = job_seed(study_seed, &base);
+            prop_assert_eq!(seed, job_seed(study_seed, &base));
+            prop_assert_ne!(seed, job_seed(study_seed.wrapping_add(1), &base));
+            prop_assert_ne!(seed, job_seed(study_seed, &SeedKey { occurrence: occurrence + 1, ..base }));
+            prop_assert_ne!(seed, job_seed(study_seed, &SeedKey { replicate: replicate + 1, ..base }));
+            prop_assert_ne!(seed, job_seed(study_seed, &SeedKey { stream: "cfd", ..base }));
+            prop_assert_ne!(seed, job_seed(study_seed, &SeedKey { purpose: "test", ..base }));
+            let longer = format!("{case}0");
+            prop_assert_ne!(seed, job_seed(study_seed, &SeedKey { case: &longer, ..base }));
+        }
+    }
+}

@@ -9,3 +9,11 @@ ALTER TABLE jobs ADD COLUMN identity TEXT;
 ALTER TABLE jobs ADD COLUMN reused_from_job INTEGER REFERENCES jobs(id) ON DELETE SET NULL;
 ALTER TABLE jobs ADD COLUMN reused_from TEXT;
 CREATE INDEX jobs_by_identity ON jobs (identity, state) WHERE identity IS NOT NULL;
+
+-- The runs `orch compare` made, by identity, with their responses as JSON: a later
+-- comparison takes them instead of running the same deck again.
+CREATE TABLE comparison_runs (
+    identity    TEXT PRIMARY KEY,
+    responses   TEXT NOT NULL,
+    created_at  REAL NOT NULL
+);

@@ -161,6 +161,10 @@ pub enum Command {
         /// Keep the run directories (default: removed when every run succeeded).
         #[arg(long)]
         keep_runs: bool,
+        /// Run every case again, even one an earlier comparison ran with the same deck
+        /// and solver build (default: take those runs from the store).
+        #[arg(long)]
+        no_reuse: bool,
     },
     /// Default templates, to copy and adapt as a study's `template:`.
     Template {
@@ -207,7 +211,16 @@ pub async fn run(args: Args) -> anyhow::Result<i32> {
             dry_run,
             as_name,
             no_reuse,
-        } => submit(&study_file, project_dir, dry_run, as_name.as_deref(), no_reuse).await,
+        } => {
+            submit(
+                &study_file,
+                project_dir,
+                dry_run,
+                as_name.as_deref(),
+                no_reuse,
+            )
+            .await
+        }
         Command::Delete { study } => delete(project_dir, &study).await,
         Command::Status { study, json } => show_status(project_dir, study.as_deref(), json).await,
         Command::Logs { job, tail } => logs(project_dir, &job, tail).await,
@@ -237,6 +250,7 @@ pub async fn run(args: Args) -> anyhow::Result<i32> {
             perturb,
             parallel,
             keep_runs,
+            no_reuse,
         } => {
             let options = CompareArgs {
                 quick,
@@ -244,6 +258,7 @@ pub async fn run(args: Args) -> anyhow::Result<i32> {
                 perturb,
                 parallel,
                 keep_runs,
+                no_reuse,
             };
             compare(project_dir, &suite, &options).await
         }
@@ -428,6 +443,7 @@ struct CompareArgs {
     perturb: Vec<String>,
     parallel: usize,
     keep_runs: bool,
+    no_reuse: bool,
 }
 
 /// `name=factor` pairs of `--perturb`.
@@ -515,6 +531,11 @@ async fn compare(
         perturbation: perturbation.clone(),
         parallel: args.parallel,
         runs_dir: runs_dir.clone(),
+        known: if args.no_reuse {
+            Default::default()
+        } else {
+            store.comparison_runs().await?
+        },
     };
     let cases = suite.selected(args.quick).len();
     errln!(
@@ -548,6 +569,13 @@ async fn compare(
         confidence: suite.confidence,
         verdict: verdict.as_str().to_string(),
     };
+    store.record_comparison_runs(&outcome.made).await?;
+    if outcome.reused > 0 {
+        errln!(
+            "orch compare: {} runs were made by an earlier comparison (the same decks and solver builds) and taken from it, not run again; --no-reuse runs them",
+            outcome.reused
+        );
+    }
     let (responses, speeds) = history::records(&outcome);
     let id = store
         .insert_comparison(&record, &responses, &speeds)

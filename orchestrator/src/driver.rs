@@ -566,8 +566,12 @@ impl<E: Executor> Driver<'_, E> {
             return Ok(false);
         }
         self.store.mark_reused(job.id, identity, &source).await?;
-        let responses: Vec<(String, f64)> =
-            self.store.job_responses(job.id).await?.into_iter().collect();
+        let responses: Vec<(String, f64)> = self
+            .store
+            .job_responses(job.id)
+            .await?
+            .into_iter()
+            .collect();
         let results = JobResults {
             note: None,
             responses,

@@ -557,7 +557,10 @@ mod tests {
         let jobs = store.jobs(id).await.unwrap();
         assert_eq!(jobs.len(), levels);
         for (k, job) in [(0, &jobs[0]), (1, &jobs[PAGE_LEN]), (2, &jobs[levels - 1])] {
-            store.mark_rendered(job.id, &format!("test run {}", job.id)).await.unwrap();
+            store
+                .mark_rendered(job.id, &format!("test run {}", job.id))
+                .await
+                .unwrap();
             store.mark_running(job.id, "1:1", 0.0).await.unwrap();
             let results = JobResults {
                 responses: vec![(format!("r{k}"), k as f64 + 0.5)],
@@ -593,7 +596,10 @@ mod tests {
             .unwrap();
         let jobs = store.jobs(id).await.unwrap();
         for (k, job) in jobs.iter().enumerate().filter(|(k, _)| *k != 1) {
-            store.mark_rendered(job.id, &format!("test run {}", job.id)).await.unwrap();
+            store
+                .mark_rendered(job.id, &format!("test run {}", job.id))
+                .await
+                .unwrap();
             store.mark_running(job.id, "1:1", 0.0).await.unwrap();
             let results = JobResults {
                 series: vec![

@@ -43,7 +43,10 @@ pub fn of_run(run_dir: &Path, command: &CommandSpec, conditions: &str) -> std::i
         let meta = std::fs::symlink_metadata(&path)?;
         if meta.file_type().is_symlink() {
             field(&mut hash, b"link");
-            field(&mut hash, std::fs::read_link(&path)?.as_os_str().as_encoded_bytes());
+            field(
+                &mut hash,
+                std::fs::read_link(&path)?.as_os_str().as_encoded_bytes(),
+            );
         } else {
             field(&mut hash, b"file");
             field(&mut hash, &std::fs::read(&path)?);
@@ -249,7 +252,11 @@ mod tests {
             identity(&[("deck.in", "seed 10009\n")], &sh, ""),
             identity(&[("deck2.in", "seed 10007\n")], &sh, ""),
             identity(&[("deck.in", "seed 10007\n"), ("extra", "")], &sh, ""),
-            identity(&[("deck.in", "seed 10007\n")], &command("true", 1, false), ""),
+            identity(
+                &[("deck.in", "seed 10007\n")],
+                &command("true", 1, false),
+                "",
+            ),
             identity(&[("deck.in", "seed 10007\n")], &sh, "stop_when 0.03"),
         ];
         for other in others {
@@ -282,7 +289,11 @@ mod tests {
 
     #[test]
     fn a_linked_run_has_the_sources_files_and_keeps_its_own_attempts_log() {
-        let from = run_dir(&[("deck.in", "x"), ("post/dump.1", "1 2 3"), (ATTEMPTS_LOG, "theirs")]);
+        let from = run_dir(&[
+            ("deck.in", "x"),
+            ("post/dump.1", "1 2 3"),
+            (ATTEMPTS_LOG, "theirs"),
+        ]);
         let to = run_dir(&[("deck.in", "x"), (ATTEMPTS_LOG, "mine")]);
         link_run(from.path(), to.path()).unwrap();
         let read = |f: &str| std::fs::read_to_string(to.path().join(f)).unwrap();

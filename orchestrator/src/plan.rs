@@ -141,7 +141,13 @@ pub fn plan_points<'a>(
                 jobs.push(PlannedJob {
                     name: format!("{name}-{kind}"),
                     replicate,
-                    seed: job_seed(study.seed, &SeedKey { stream: kind, ..key }),
+                    seed: job_seed(
+                        study.seed,
+                        &SeedKey {
+                            stream: kind,
+                            ..key
+                        },
+                    ),
                     stage: kind,
                     after: Some(design_job),
                 });
@@ -154,7 +160,11 @@ pub fn plan_points<'a>(
                     // A DEM run in air keeps its design job's seed: the same particles
                     // in another air, so that the change the coupling watches is the
                     // air's, not the insertion's (common random numbers).
-                    let stream = if kind == AIR_STAGE { DESIGN_STAGE } else { kind };
+                    let stream = if kind == AIR_STAGE {
+                        DESIGN_STAGE
+                    } else {
+                        kind
+                    };
                     jobs.push(PlannedJob {
                         name: chained,
                         replicate,
@@ -258,6 +268,72 @@ mod tests {
             replicate,
             stream,
         }
+    }
+
+    fn a_study(extra: &str) -> Study {
+        let text = format!(
+            "name: planned\nsolver: native\nfactors:\n  - {{name: outlet_diameter, min: 0.020, max: 0.028}}\ndesign: {{type: full_factorial, levels: 3}}\n{extra}"
+        );
+        Study::from_text(std::path::Path::new("planned.yaml"), &text, None).unwrap()
+    }
+
+    fn point(outlet: f64) -> DesignPoint {
+        DesignPoint {
+            coded: vec![(outlet - 0.024) / 0.004],
+            natural: vec![outlet],
+        }
+    }
+
+    fn seeds(planned: &[PlannedPoint<'_>]) -> Vec<Vec<u64>> {
+        planned
+            .iter()
+            .map(|p| p.jobs.iter().map(|j| j.seed).collect())
+            .collect()
+    }
+
+    #[test]
+    fn a_point_a_later_round_revisits_is_the_same_run_as_its_first_and_a_repeat_in_one_design_is_not(
+    ) {
+        let study = a_study("replicates: 2\nseed: 5\n");
+        let first = [point(0.020), point(0.028), point(0.028)];
+        let round0 = plan_points(&study, 0, &first, PointPurpose::Design);
+        let later = [point(0.026), point(0.028)];
+        let round1 = plan_points(&study, 1, &later, PointPurpose::Design);
+        let (s0, s1) = (seeds(&round0), seeds(&round1));
+        assert_eq!(round1[1].jobs[0].name, "r1-p001r0");
+        // 0.028 in round 1 is round 0's first 0.028, replicate by replicate.
+        assert_eq!(s1[1], s0[1]);
+        // The second 0.028 of round 0 (a repeated run of one design) and the
+        // replicates are runs of their own.
+        assert!(s0[2].iter().all(|seed| !s0[1].contains(seed)));
+        assert_ne!(s0[1][0], s0[1][1]);
+        // A held-out test run at a design point is never that design run.
+        let tests = plan_points(&study, 0, &first[..1], PointPurpose::Test { first_idx: 3 });
+        assert_eq!(tests[0].idx, 3);
+        assert_eq!(tests[0].jobs[0].name, "t000r0");
+        assert_ne!(seeds(&tests)[0], s0[0]);
+        // Another study seed is another run everywhere.
+        let other = plan_points(
+            &a_study("replicates: 2\nseed: 6\n"),
+            0,
+            &first,
+            PointPurpose::Design,
+        );
+        assert!(seeds(&other)
+            .concat()
+            .iter()
+            .all(|seed| !s0.concat().contains(seed)));
+    }
+
+    #[test]
+    fn the_same_case_reached_through_another_box_rounds_to_the_same_key() {
+        let study = a_study("");
+        // 0.1 + 0.2 is 0.30000000000000004: the same point for any user.
+        let a = case_key(&study, &point(0.1 + 0.2));
+        let b = case_key(&study, &point(0.3));
+        assert_eq!(a, b);
+        assert_ne!(a, case_key(&study, &point(0.300001)));
+        assert!(a.contains("outlet_diameter=3.00000000000e-1;"), "{a}");
     }
 
     #[test]

@@ -483,7 +483,10 @@ pub(crate) mod testing {
             .map(|p| (p.id, p.coded))
             .collect();
         for (k, job) in store.jobs(id).await.unwrap().iter().enumerate() {
-            store.mark_rendered(job.id, &format!("test run {}", job.id)).await.unwrap();
+            store
+                .mark_rendered(job.id, &format!("test run {}", job.id))
+                .await
+                .unwrap();
             store.mark_running(job.id, "1:1", 0.0).await.unwrap();
             let results = results(&coded[&job.point_id], k);
             store.mark_succeeded(job.id, 0, &results).await.unwrap();

@@ -1486,7 +1486,10 @@ mod tests {
             (&jobs[2], -1234.5),
             (&jobs[levels - 2], 1.5e6),
         ] {
-            store.mark_rendered(job.id, &format!("test run {}", job.id)).await.unwrap();
+            store
+                .mark_rendered(job.id, &format!("test run {}", job.id))
+                .await
+                .unwrap();
             store.mark_running(job.id, "1:1", 0.0).await.unwrap();
             let results = JobResults {
                 responses: vec![("exit_speed".into(), value)],
@@ -1500,7 +1503,10 @@ mod tests {
             .await
             .unwrap();
         if on_scheduler {
-            store.mark_rendered(jobs[3].id, &format!("test run {}", jobs[3].id)).await.unwrap();
+            store
+                .mark_rendered(jobs[3].id, &format!("test run {}", jobs[3].id))
+                .await
+                .unwrap();
             store.mark_submitted(jobs[3].id, "4242").await.unwrap();
             store
                 .set_scheduler_state(jobs[3].id, "PENDING")

@@ -198,7 +198,10 @@ fn own_design_runs<J: JobLink>(
         if job.state() != JobState::Succeeded || superseded.contains(&job.id()) {
             continue;
         }
-        if job.identity().is_some_and(|identity| !identities.insert(identity)) {
+        if job
+            .identity()
+            .is_some_and(|identity| !identities.insert(identity))
+        {
             continue;
         }
         out.entry(point.round).or_default().push(Run {
@@ -405,6 +408,47 @@ mod tests {
             (loo[0] - expected).abs() < 1e-12,
             "{} vs {expected}",
             loo[0]
+        );
+    }
+
+    #[test]
+    fn jobs_that_share_a_run_identity_are_one_observation() {
+        use crate::store::JobLinkRow;
+        let point = |id: i64, round: i64| PointRow {
+            id,
+            round,
+            idx: 0,
+            purpose: "design".into(),
+            coded: vec![1.0],
+            natural: vec![0.028],
+        };
+        let job = |id: i64, point_id: i64, identity: Option<&str>| JobLinkRow {
+            id,
+            point_id,
+            name: format!("j{id}").into(),
+            state: JobState::Succeeded,
+            stage: crate::store::DESIGN_STAGE.into(),
+            after_job_id: None,
+            identity: identity.map(Into::into),
+        };
+        // Round 0 ran the corner twice (two replicates); round 1 revisited it and
+        // reused replicate 0; a job of an earlier version has no identity.
+        let points = [point(1, 0), point(2, 1)];
+        let jobs = [
+            job(1, 1, Some("a")),
+            job(2, 1, Some("b")),
+            job(3, 2, Some("a")),
+            job(4, 2, None),
+            job(5, 2, None),
+        ];
+        let runs = own_design_runs(&points, &jobs, |_| ResponseValues::default());
+        let names =
+            |round: i64| -> Vec<String> { runs[&round].iter().map(|r| r.job.clone()).collect() };
+        assert_eq!(names(0), ["j1", "j2"]);
+        assert_eq!(
+            names(1),
+            ["j4", "j5"],
+            "the copy j3 is left out; runs without an identity each count"
         );
     }
 

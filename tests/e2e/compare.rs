@@ -59,15 +59,22 @@ fn quick_comparison_agrees_and_a_perturbed_native_kernel_is_a_regression() {
         "the report is written"
     );
 
+    let made = project.query("SELECT COUNT(*) FROM comparison_runs");
+    let made: usize = made[0][0].parse().unwrap();
+    assert!(made >= 2, "every run is recorded by its identity: {made}");
+
+    // The perturbation changes only the native decks: the LIGGGHTS runs are the
+    // first comparison's, taken from the store instead of running again.
     let output = project.run(&["compare", &suite(), "--quick", "--perturb", "density=1.3"]);
     let stdout = text(&output.stdout);
+    let stderr = text(&output.stderr);
     eprintln!("orch compare --quick --perturb density=1.3:\n{stdout}");
-    assert_eq!(
-        output.status.code(),
-        Some(1),
-        "{stdout}\n{}",
-        text(&output.stderr)
+    let reused = format!(
+        "orch compare: {} runs were made by an earlier comparison",
+        made / 2
     );
+    assert!(stderr.contains(&reused), "{reused}:\n{stderr}");
+    assert_eq!(output.status.code(), Some(1), "{stdout}\n{stderr}");
     let regression = stdout
         .lines()
         .find(|l| l.starts_with("REGRESSION:"))

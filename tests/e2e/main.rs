@@ -23,6 +23,7 @@ mod pour;
 mod real_liggghts;
 mod refusals;
 mod reports;
+mod reuse;
 mod rounds;
 mod slurm;
 mod stop_when;

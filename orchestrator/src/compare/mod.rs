@@ -10,12 +10,18 @@
 //! solver the mean throughput of the solver's loop (particle-steps/s). Runs that share
 //! the machine slow each other a little, equally for both solvers, so the ratio is
 //! the figure to watch, not the absolute speeds.
+//!
+//! A rendered run whose identity ([`crate::identity`]: its files, the program and its
+//! version) an earlier comparison of the project already made is not run again: its
+//! stored responses, its speed included, are taken. A comparison of unchanged solvers
+//! on an unchanged suite runs nothing; a new build of the native kernel is another
+//! program, so its runs are made.
 
 pub mod analysis;
 pub mod history;
 pub mod suite;
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashMap};
 use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -45,6 +51,9 @@ pub struct RunOptions {
     pub parallel: usize,
     /// Where the run directories go.
     pub runs_dir: PathBuf,
+    /// Runs earlier comparisons made, by identity: taken instead of running again
+    /// (empty with `--no-reuse`).
+    pub known: HashMap<String, analysis::RunValues>,
 }
 
 /// One run of one case with one seed on one solver.
@@ -57,7 +66,15 @@ struct RunSpec {
 }
 
 /// What one run gave, or why it gave nothing.
-type RunOutcome = Result<analysis::RunValues, String>;
+type RunOutcome = Result<Made, String>;
+
+/// A run's values and how they were had.
+#[derive(Debug, Clone)]
+struct Made {
+    values: analysis::RunValues,
+    identity: String,
+    reused: bool,
+}
 
 /// Everything one run of the suite found.
 #[derive(Debug, Clone)]
@@ -72,6 +89,10 @@ pub struct SuiteOutcome {
     pub solver_versions: BTreeMap<String, String>,
     /// Wall time of the whole suite, s.
     pub wall_time_s: f64,
+    /// Runs made now, by identity, for the store to know next time.
+    pub made: Vec<(String, analysis::RunValues)>,
+    /// Runs taken from earlier comparisons instead of running.
+    pub reused: usize,
 }
 
 impl SuiteOutcome {
@@ -108,13 +129,22 @@ pub fn run_suite(suite: &Suite, options: &RunOptions) -> SuiteOutcome {
     }
     let outcomes = run_all(&cases, &specs, options);
     let mut failures = Vec::new();
+    let mut made = Vec::new();
+    let mut reused = 0;
     let mut by_case: BTreeMap<(usize, &str), Vec<analysis::RunValues>> = BTreeMap::new();
     for (spec, outcome) in specs.iter().zip(&outcomes) {
         match outcome {
-            Ok(values) => by_case
-                .entry((spec.case, spec.solver.name))
-                .or_default()
-                .push(values.clone()),
+            Ok(run) => {
+                if run.reused {
+                    reused += 1;
+                } else {
+                    made.push((run.identity.clone(), run.values.clone()));
+                }
+                by_case
+                    .entry((spec.case, spec.solver.name))
+                    .or_default()
+                    .push(run.values.clone())
+            }
             Err(why) => failures.push(format!(
                 "{} on {} seed {}: {why} (run directory {})",
                 cases[spec.case].name,
@@ -175,6 +205,8 @@ pub fn run_suite(suite: &Suite, options: &RunOptions) -> SuiteOutcome {
         failures,
         solver_versions,
         wall_time_s: start.elapsed().as_secs_f64(),
+        made,
+        reused,
     }
 }
 
@@ -193,7 +225,7 @@ fn run_all(cases: &[&SuiteCase], specs: &[RunSpec], options: &RunOptions) -> Vec
                 } else {
                     BTreeMap::new()
                 };
-                let outcome = run_one(case, spec, &perturbation);
+                let outcome = run_one(case, spec, &perturbation, &options.known);
                 tracing::info!(
                     case = %case.name, solver = spec.solver.name, seed = spec.seed,
                     ok = outcome.is_ok(), "compare run finished"
@@ -210,8 +242,14 @@ fn run_all(cases: &[&SuiteCase], specs: &[RunSpec], options: &RunOptions) -> Vec
         .collect()
 }
 
-/// Renders, runs and reads one run.
-fn run_one(case: &SuiteCase, spec: &RunSpec, perturbation: &BTreeMap<String, f64>) -> RunOutcome {
+/// Renders one run and takes its values from `known` when the project already made
+/// it, else runs and reads it.
+fn run_one(
+    case: &SuiteCase,
+    spec: &RunSpec,
+    perturbation: &BTreeMap<String, f64>,
+    known: &HashMap<String, analysis::RunValues>,
+) -> RunOutcome {
     let equipment = equipment_for(&case.equipment).expect("checked when loaded");
     let simulation = EquipmentOnSolver::new(equipment, spec.solver).ok_or_else(|| {
         format!(
@@ -230,6 +268,15 @@ fn run_one(case: &SuiteCase, spec: &RunSpec, perturbation: &BTreeMap<String, f64
         .render(&parameters, &spec.dir)
         .map_err(|e| format!("cannot render: {e}"))?;
     let command = simulation.command();
+    let identity = crate::identity::of_run(&spec.dir, &command, "")
+        .map_err(|e| format!("cannot read the rendered run: {e}"))?;
+    if let Some(values) = known.get(&identity) {
+        return Ok(Made {
+            values: values.clone(),
+            identity,
+            reused: true,
+        });
+    }
     let file = |name: &str| {
         std::fs::File::create(spec.dir.join(name)).map_err(|e| format!("cannot create {name}: {e}"))
     };
@@ -264,7 +311,11 @@ fn run_one(case: &SuiteCase, spec: &RunSpec, perturbation: &BTreeMap<String, f64
         }
         values.remove(&name);
     }
-    Ok(values)
+    Ok(Made {
+        values,
+        identity,
+        reused: false,
+    })
 }
 
 /// The version of `solver`: orch's for the native kernel, the first log line's for

@@ -1,8 +1,10 @@
 //! The history of `orch compare`: one row per run of a suite, its responses and speeds.
 
+use std::collections::BTreeMap;
+
 use sqlx::Row;
 
-use super::{query_error, Store, StoreError};
+use super::{now_s, query_error, Store, StoreError};
 
 /// One run of a comparison suite.
 #[derive(Debug, Clone, PartialEq)]
@@ -240,5 +242,45 @@ impl Store {
             });
         }
         Ok(found)
+    }
+}
+
+impl Store {
+    /// Every run an earlier `orch compare` made, by identity: its responses.
+    pub async fn comparison_runs(
+        &self,
+    ) -> Result<std::collections::HashMap<String, BTreeMap<String, f64>>, StoreError> {
+        let rows: Vec<(String, String)> =
+            sqlx::query_as("SELECT identity, responses FROM comparison_runs")
+                .fetch_all(&self.pool)
+                .await
+                .map_err(query_error("read the runs of earlier comparisons"))?;
+        Ok(rows
+            .into_iter()
+            .filter_map(|(identity, text)| Some((identity, serde_json::from_str(&text).ok()?)))
+            .collect())
+    }
+
+    /// Records the runs a comparison made (identity, responses), in one transaction.
+    pub async fn record_comparison_runs(
+        &self,
+        runs: &[(String, BTreeMap<String, f64>)],
+    ) -> Result<(), StoreError> {
+        let mut tx = self.begin_write().await?;
+        for (identity, responses) in runs {
+            let text = serde_json::to_string(responses).expect("numbers by name serialise");
+            sqlx::query(
+                "INSERT OR REPLACE INTO comparison_runs (identity, responses, created_at) VALUES (?, ?, ?)",
+            )
+            .bind(identity)
+            .bind(text)
+            .bind(now_s())
+            .execute(&mut *tx)
+            .await
+            .map_err(query_error("record a comparison's runs"))?;
+        }
+        tx.commit()
+            .await
+            .map_err(query_error("record a comparison's runs"))
     }
 }

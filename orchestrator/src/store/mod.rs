@@ -71,7 +71,7 @@ pub enum StoreError {
         source: sqlx::Error,
     },
     /// The schema could not be brought up to date.
-    #[error("cannot update the schema of {}: {source}", path.display())]
+    #[error("cannot update the schema of {}: {source}; each migration runs in a transaction, so nothing stored was changed. A store written by a newer orch needs that orch (or open a copy of the project with it); otherwise keep a copy of the file and report this error", path.display())]
     Migrate {
         /// The database file.
         path: PathBuf,
@@ -1015,7 +1015,8 @@ impl Store {
     }
 
     /// pending → succeeded without running: the job is the run `source`, whose
-    /// responses and series it takes a copy of, in one transaction.
+    /// responses and series it takes a copy of, in one transaction. It keeps no start
+    /// or end time (it never ran, so it tells nothing of how long a run takes).
     pub async fn mark_reused(
         &self,
         job_id: i64,
@@ -1023,21 +1024,18 @@ impl Store {
         source: &ReuseSource,
     ) -> Result<(), StoreError> {
         let mut tx = self.begin_write().await?;
-        let now = now_s();
         let note = format!("reused from {}", source.name);
         self.transition(
             &mut tx,
             job_id,
             &[JobState::Pending],
             JobState::Succeeded,
-            "identity = ?, reused_from_job = ?, reused_from = ?, started_at = ?, finished_at = ?,
+            "identity = ?, reused_from_job = ?, reused_from = ?, started_at = NULL, finished_at = NULL,
              exit_code = (SELECT exit_code FROM jobs WHERE id = ?), error = (SELECT error FROM jobs WHERE id = ?)",
             vec![
                 Bind::Text(identity.to_string()),
                 Bind::Int(source.job_id),
                 Bind::Text(source.name.clone()),
-                Bind::Real(now),
-                Bind::Real(now),
                 Bind::Int(source.job_id),
                 Bind::Int(source.job_id),
             ],

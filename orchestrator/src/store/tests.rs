@@ -55,7 +55,10 @@ async fn a_study_is_recorded_with_points_and_jobs() {
 async fn a_job_moves_through_its_states_and_keeps_its_results() {
     let (_dir, store, id) = store_with_study().await;
     let job = store.jobs(id).await.unwrap()[0].id;
-    store.mark_rendered(job, &format!("test run {}", job)).await.unwrap();
+    store
+        .mark_rendered(job, &format!("test run {}", job))
+        .await
+        .unwrap();
     store.mark_running(job, "123:456", 10.0).await.unwrap();
     let results = JobResults {
         responses: vec![("discharge_rate".into(), 0.15)],
@@ -85,6 +88,107 @@ async fn a_job_moves_through_its_states_and_keeps_its_results() {
     );
 }
 
+/// Runs `job` to success with identity `identity` and one response and series.
+async fn succeed_as(store: &Store, job: i64, identity: &str, rate: f64) {
+    store.mark_rendered(job, identity).await.unwrap();
+    store.mark_running(job, "1:1", 1.0).await.unwrap();
+    let results = JobResults {
+        responses: vec![("discharge_rate".into(), rate)],
+        series: vec![("mass_flow_rate".into(), vec![(0.1, rate)])],
+        note: None,
+    };
+    store.mark_succeeded(job, 0, &results).await.unwrap();
+}
+
+#[tokio::test]
+async fn a_job_with_a_succeeded_identity_is_that_run_with_a_copy_of_its_results() {
+    let (_dir, store, id) = store_with_study().await;
+    let jobs = store.jobs(id).await.unwrap();
+    let (first, copy) = (jobs[0].id, jobs[5].id);
+    assert_eq!(store.succeeded_run("same", copy).await.unwrap(), None);
+    succeed_as(&store, first, "same", 0.15).await;
+    // Another identity, or a run that has not succeeded, is not a source.
+    store.mark_rendered(jobs[1].id, "other").await.unwrap();
+    assert_eq!(store.succeeded_run("other", copy).await.unwrap(), None);
+    // A job is never its own source.
+    assert_eq!(store.succeeded_run("same", first).await.unwrap(), None);
+
+    let source = store.succeeded_run("same", copy).await.unwrap().unwrap();
+    assert_eq!(
+        (source.job_id, source.name.as_str()),
+        (first, "small/p000r0")
+    );
+    store.mark_reused(copy, "same", &source).await.unwrap();
+    let row = store.job(copy).await.unwrap();
+    assert_eq!(row.state(), JobState::Succeeded);
+    assert_eq!(row.attempts, 0, "nothing was launched");
+    assert_eq!(
+        (row.started_at, row.finished_at),
+        (None, None),
+        "it never ran"
+    );
+    assert_eq!(row.identity.as_deref(), Some("same"));
+    assert_eq!(row.reused_from.as_deref(), Some("small/p000r0"));
+    assert_eq!(
+        store.responses(id).await.unwrap()[&copy].get("discharge_rate"),
+        Some(0.15)
+    );
+    assert_eq!(
+        store.series(copy, "mass_flow_rate").await.unwrap(),
+        vec![(0.1, 0.15)]
+    );
+    assert_eq!(store.reused_count(id).await.unwrap(), 1);
+    // A job that ran is preferred as a source over one that was itself reused.
+    let third = store
+        .succeeded_run("same", jobs[6].id)
+        .await
+        .unwrap()
+        .unwrap();
+    assert_eq!(third.job_id, first);
+    // Only a pending job can be recorded as reused.
+    assert!(store.mark_reused(first, "same", &source).await.is_err());
+}
+
+#[tokio::test]
+async fn deleting_a_study_leaves_the_runs_other_studies_reused_whole() {
+    let (dir, store, id) = store_with_study().await;
+    let study = Study::from_text(Path::new("small.yaml"), STUDY, None).unwrap();
+    let mut again = study.clone();
+    again.rename("small-again").unwrap();
+    let again_id = store
+        .insert_study(&again, Path::new("small.yaml"), &dir.path().join("runs"))
+        .await
+        .unwrap();
+    let first = store.jobs(id).await.unwrap()[0].id;
+    succeed_as(&store, first, "same", 0.15).await;
+    let reuser = store.jobs(again_id).await.unwrap()[0].id;
+    let source = store.succeeded_run("same", reuser).await.unwrap().unwrap();
+    store.mark_reused(reuser, "same", &source).await.unwrap();
+    assert_eq!(
+        store.reusers_of(id).await.unwrap(),
+        vec!["small-again/p000r0"]
+    );
+    assert!(store.reusers_of(again_id).await.unwrap().is_empty());
+
+    let row = store.study_by_name("small").await.unwrap().unwrap();
+    store.delete_study(&row, |_, _| false).await.unwrap();
+    let kept = store.job(reuser).await.unwrap();
+    assert_eq!(kept.reused_from.as_deref(), Some("small/p000r0"));
+    assert_eq!(
+        store.responses(again_id).await.unwrap()[&reuser].get("discharge_rate"),
+        Some(0.15)
+    );
+    // With the source gone, the copy is the project's run of that identity.
+    assert_eq!(
+        store
+            .succeeded_run("same", 0)
+            .await
+            .unwrap()
+            .map(|s| s.job_id),
+        Some(reuser)
+    );
+}
+
 #[tokio::test]
 async fn a_transition_from_the_wrong_state_is_refused_and_changes_nothing() {
     let (_dir, store, id) = store_with_study().await;
@@ -100,7 +204,10 @@ async fn interruption_refunds_the_attempt_and_loss_does_not() {
     let (_dir, store, id) = store_with_study().await;
     let job = store.jobs(id).await.unwrap()[0].id;
     for refund in [true, false] {
-        store.mark_rendered(job, &format!("test run {}", job)).await.unwrap();
+        store
+            .mark_rendered(job, &format!("test run {}", job))
+            .await
+            .unwrap();
         store.mark_running(job, "1:1", 0.0).await.unwrap();
         store.requeue(job, "put back", refund).await.unwrap();
     }
@@ -344,9 +451,15 @@ async fn a_tick_reads_the_open_jobs_and_only_the_first_pending_ones_it_could_act
     let (_dir, store, id) = store_with_study().await;
     let jobs = store.jobs(id).await.unwrap();
     let (running, done) = (jobs[0].id, jobs[1].id);
-    store.mark_rendered(running, &format!("test run {}", running)).await.unwrap();
+    store
+        .mark_rendered(running, &format!("test run {}", running))
+        .await
+        .unwrap();
     store.mark_running(running, "1:2", 1.0).await.unwrap();
-    store.mark_rendered(done, &format!("test run {}", done)).await.unwrap();
+    store
+        .mark_rendered(done, &format!("test run {}", done))
+        .await
+        .unwrap();
     store.mark_running(done, "3:4", 1.0).await.unwrap();
     store
         .mark_succeeded(done, 0, &JobResults::default())
@@ -451,7 +564,10 @@ async fn a_study_s_jobs_are_read_at_chosen_positions_with_their_responses() {
             series: Vec::new(),
             note: None,
         };
-        store.mark_rendered(job.id, &format!("test run {}", job.id)).await.unwrap();
+        store
+            .mark_rendered(job.id, &format!("test run {}", job.id))
+            .await
+            .unwrap();
         store.mark_running(job.id, "1:1", 1.0).await.unwrap();
         store.mark_succeeded(job.id, 0, &results).await.unwrap();
     }
@@ -506,7 +622,10 @@ async fn the_jobs_of_each_series_are_listed_by_id_and_named_on_demand() {
             series,
             note: None,
         };
-        store.mark_rendered(job.id, &format!("test run {}", job.id)).await.unwrap();
+        store
+            .mark_rendered(job.id, &format!("test run {}", job.id))
+            .await
+            .unwrap();
         store.mark_running(job.id, "1:1", 1.0).await.unwrap();
         store.mark_succeeded(job.id, 0, &results).await.unwrap();
     }
@@ -553,7 +672,10 @@ async fn the_jobs_of_each_series_are_read_across_pages() {
                 .collect(),
             note: None,
         };
-        store.mark_rendered(job.id, &format!("test run {}", job.id)).await.unwrap();
+        store
+            .mark_rendered(job.id, &format!("test run {}", job.id))
+            .await
+            .unwrap();
         store.mark_running(job.id, "1:1", 1.0).await.unwrap();
         store.mark_succeeded(job.id, 0, &results).await.unwrap();
     }
@@ -570,7 +692,10 @@ async fn the_jobs_of_each_series_are_read_across_pages() {
 async fn a_study_s_job_links_are_its_jobs_link_fields() {
     let (_dir, store, id) = store_with_study().await;
     let first = store.jobs(id).await.unwrap()[0].id;
-    store.mark_rendered(first, &format!("test run {}", first)).await.unwrap();
+    store
+        .mark_rendered(first, &format!("test run {}", first))
+        .await
+        .unwrap();
     store.mark_running(first, "1:1", 1.0).await.unwrap();
     store
         .mark_failed(first, Some(1), "the solver crashed")
@@ -615,4 +740,82 @@ async fn every_connection_keeps_the_small_page_cache() {
             .unwrap();
         assert_eq!(kib.to_string(), CACHE_SIZE_KIB);
     }
+}
+
+#[tokio::test]
+async fn a_store_of_the_version_before_run_identity_opens_migrated_with_nothing_lost() {
+    use sqlx::sqlite::SqlitePoolOptions;
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join(DATABASE_FILE);
+    // The schema as the version before 0012 left it, with a study, a point and a
+    // succeeded job with a response.
+    let options = SqliteConnectOptions::new()
+        .filename(&path)
+        .create_if_missing(true)
+        .foreign_keys(true);
+    let pool = SqlitePoolOptions::new()
+        .connect_with(options)
+        .await
+        .unwrap();
+    let mut before = sqlx::migrate!("./migrations");
+    before.migrations = before
+        .migrations
+        .iter()
+        .filter(|m| m.version <= 11)
+        .cloned()
+        .collect::<Vec<_>>()
+        .into();
+    before.run(&pool).await.unwrap();
+    for sql in [
+        "INSERT INTO studies (id, name, solver, file_path, file_text, file_sha256, template_name, template_text, state, created_at, updated_at)
+         VALUES (1, 'old', 'native', 'old.yaml', 'name: old', 'abc', 't', 't', 'finished', 0, 0)",
+        "INSERT INTO points (id, study_id, round, idx) VALUES (1, 1, 0, 0)",
+        "INSERT INTO jobs (id, study_id, point_id, replicate, name, seed, state, run_dir, attempts, exit_code)
+         VALUES (1, 1, 1, 0, 'p000r0', 7002021, 'succeeded', '/runs/old/p000r0', 1, 0)",
+        "INSERT INTO responses (job_id, name, value) VALUES (1, 'discharge_rate', 0.2075)",
+    ] {
+        sqlx::query(sql).execute(&pool).await.unwrap();
+    }
+    pool.close().await;
+
+    let store = Store::open(dir.path()).await.unwrap();
+    let job = store.job(1).await.unwrap();
+    assert_eq!(
+        (job.name.as_str(), job.seed, job.state(), job.attempts),
+        ("p000r0", 7002021, JobState::Succeeded, 1)
+    );
+    assert_eq!((job.identity, job.reused_from), (None, None));
+    assert_eq!(
+        store.job_responses(1).await.unwrap()["discharge_rate"],
+        0.2075
+    );
+    // Without an identity it is nobody's source.
+    assert_eq!(store.reused_count(1).await.unwrap(), 0);
+}
+
+#[tokio::test]
+async fn a_store_of_a_newer_orch_is_refused_with_what_to_do_and_left_as_it_was() {
+    let (dir, store, _id) = store_with_study().await;
+    sqlx::query(
+        "INSERT INTO _sqlx_migrations (version, description, success, checksum, execution_time)
+         VALUES (999, 'from the future', 1, x'00', 0)",
+    )
+    .execute(&store.pool)
+    .await
+    .unwrap();
+    store.close().await;
+    let error = Store::open(dir.path()).await.unwrap_err().to_string();
+    assert!(
+        error.contains("nothing stored was changed") && error.contains("needs that orch"),
+        "{error}"
+    );
+    let rows: i64 = {
+        let options = SqliteConnectOptions::new().filename(dir.path().join(DATABASE_FILE));
+        let pool = sqlx::SqlitePool::connect_with(options).await.unwrap();
+        sqlx::query_scalar("SELECT COUNT(*) FROM jobs")
+            .fetch_one(&pool)
+            .await
+            .unwrap()
+    };
+    assert_eq!(rows, 18);
 }

@@ -376,6 +376,7 @@ impl Equipment for Chute {
             responses,
             series,
             missing,
+            notes: Vec::new(),
         }
     }
 }

@@ -232,6 +232,7 @@ impl Equipment for Hopper {
             responses: named,
             series,
             missing,
+            notes: Vec::new(),
         }
     }
 }

@@ -30,6 +30,7 @@ mod primes;
 pub mod simulation;
 pub mod solver;
 pub mod stage;
+pub mod thin;
 pub mod yade;
 
 use std::collections::BTreeMap;
@@ -127,6 +128,8 @@ pub struct RunResults {
     /// Responses the run could not define, with why (`discharge_rate`: "no steady
     /// discharge: 6 of 300 particles crossed the sensor plane").
     pub missing: Vec<(String, String)>,
+    /// What a user should know of how the results were read (a series stored thinned).
+    pub notes: Vec<String>,
 }
 
 /// Fraction of the mass a solver counted past its sink that the crossings of the sensor

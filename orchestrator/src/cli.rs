@@ -1110,12 +1110,12 @@ async fn logs(project_dir: Option<&Path>, reference: &str, tail: usize) -> anyho
             }
             for job in store.jobs(study.id).await? {
                 if job.name == job_name {
-                    matches.push((study.clone(), job));
+                    matches.push((store.clone(), study.clone(), job));
                 }
             }
         }
     }
-    let (study, job) = match matches.len() {
+    let (store, study, job) = match matches.len() {
         1 => matches.remove(0),
         0 => {
             return Err(input_error(format!(
@@ -1128,18 +1128,20 @@ async fn logs(project_dir: Option<&Path>, reference: &str, tail: usize) -> anyho
             )))
         }
     };
-    let log_file = match job
+    // The log a job's solver writes: its stage's, its DEM solver's, or the one a user's
+    // own deck declares (`log:`), read from the stored study.
+    let log_file: Option<String> = match job
         .stage_kind()
         .filter(|&kind| kind != crate::coupling::AIR_STAGE)
     {
-        Some(kind) => orch_adapters::stage_for(kind)
-            .context("the job's stage is unknown to this orch")?
-            .log_file(),
-        None => {
-            orch_adapters::solver_for(&study.solver)
-                .context("the study's solver is unknown to this orch")?
-                .log_file
-        }
+        Some(kind) => orch_adapters::stage_for(kind).map(|stage| stage.log_file().to_string()),
+        None => match orch_adapters::solver_for(&study.solver) {
+            Some(solver) => Some(solver.log_file.to_string()),
+            None => stored_study(&store, &study)
+                .await?
+                .ok()
+                .map(|stored| stored.simulation.command().log_file),
+        },
     };
     outln!(
         "job {}/{}: {} after {} attempt(s){}",
@@ -1153,29 +1155,49 @@ async fn logs(project_dir: Option<&Path>, reference: &str, tail: usize) -> anyho
             .unwrap_or_default()
     )?;
     let run_dir = PathBuf::from(&job.run_dir);
-    for file in [
-        crate::executor::STDOUT_FILE,
-        crate::executor::STDERR_FILE,
-        log_file,
-    ] {
+    let mut files = vec![
+        crate::executor::STDOUT_FILE.to_string(),
+        crate::executor::STDERR_FILE.to_string(),
+    ];
+    match log_file {
+        Some(log) if !files.contains(&log) => files.push(log),
+        Some(_) => {}
+        None => outln!(
+            "(the study's solver log is unknown to this orch: `orch status {}` shows its run directory)",
+            study.name
+        )?,
+    }
+    for file in &files {
         let path = run_dir.join(file);
         outln!("==> {} <==", path.display())?;
-        match std::fs::read(&path).map(|bytes| String::from_utf8_lossy(&bytes).into_owned()) {
-            Ok(text) => {
-                let lines: Vec<&str> = text.lines().collect();
-                let from = if tail == 0 {
-                    0
-                } else {
-                    lines.len().saturating_sub(tail)
-                };
-                for line in &lines[from..] {
-                    outln!("{line}")?;
-                }
-            }
-            Err(e) => outln!("(cannot read: {e})")?,
+        if let Err(e) = show_lines(&path, tail) {
+            outln!("(cannot read: {e})")?;
         }
     }
     Ok(exit_codes::SUCCESS)
+}
+
+/// Prints the last `tail` lines of the file at `path` (all with 0), holding at most a
+/// line at a time for the whole file and the tail window for its end: a solver's log
+/// may be gigabytes.
+fn show_lines(path: &Path, tail: usize) -> std::io::Result<()> {
+    use std::io::BufRead;
+    if tail == 0 {
+        let reader = std::io::BufReader::new(std::fs::File::open(path)?);
+        for line in reader.split(b'\n') {
+            outln!("{}", String::from_utf8_lossy(&line?))?;
+        }
+        return Ok(());
+    }
+    let windows = crate::tail::Windows::read(path, crate::tail::WINDOW)?;
+    let lines: Vec<&str> = match &windows.tail {
+        Some(end) => end.lines().collect(),
+        None => windows.head.lines().collect(),
+    };
+    for line in &lines[lines.len().saturating_sub(tail)..] {
+        outln!("{line}")?;
+    }
+    Ok(())
 }
 
 async fn show_fits(

@@ -133,16 +133,19 @@ async fn drive_with<E: Executor>(
         progress: Progress::on_stderr(),
         last_progress: None,
         convergence: ConvergenceWatch::default(),
+        stop: stop_on_signals()?,
+        uncollected: HashSet::new(),
     };
-    let mut interrupt = signal(SignalKind::interrupt()).map_err(DriverError::Signals)?;
-    let mut terminate = signal(SignalKind::terminate()).map_err(DriverError::Signals)?;
     driver.reconcile().await?;
     let mut ticker = tokio::time::interval(TICK);
     let ending = loop {
-        tokio::select! {
-            _ = interrupt.recv() => break driver.interrupt().await?,
-            _ = terminate.recv() => break driver.interrupt().await?,
-            _ = ticker.tick() => {}
+        let mut stop = driver.stop.clone();
+        let stopped = tokio::select! {
+            _ = stop.wait_for(|stopped| *stopped) => true,
+            _ = ticker.tick() => false,
+        };
+        if stopped || driver.stopped() {
+            break driver.interrupt().await?;
         }
         driver.executor.tidy();
         let executor = &driver.executor;
@@ -156,6 +159,9 @@ async fn drive_with<E: Executor>(
             let launched = store.launched_jobs(study_id).await?;
             driver.keep_points_of(&launched, false).await?;
             driver.poll(&launched.iter().collect::<Vec<_>>()).await?;
+            if driver.stopped() {
+                break driver.interrupt().await?;
+            }
         }
         // A final job stays final while this driver holds the study, so a tick reads the
         // others and the jobs they follow, not the whole study; of the pending jobs only
@@ -225,9 +231,35 @@ struct Driver<'a, E> {
     last_progress: Option<Instant>,
     /// Running jobs' checks against the study's `stop_when:`.
     convergence: ConvergenceWatch,
+    /// Turns true on Ctrl-C or SIGTERM, whatever the driver is doing.
+    stop: tokio::sync::watch::Receiver<bool>,
+    /// Jobs that exited 0 but whose output was not read because orch was asked to
+    /// stop: left running in the store for `orch resume` to read, not run again.
+    uncollected: HashSet<i64>,
+}
+
+/// A flag that turns true on the first Ctrl-C (SIGINT) or SIGTERM, set by a task of its
+/// own, so that a driver busy reading a large output still stops within a tick.
+fn stop_on_signals() -> Result<tokio::sync::watch::Receiver<bool>, DriverError> {
+    let mut interrupt = signal(SignalKind::interrupt()).map_err(DriverError::Signals)?;
+    let mut terminate = signal(SignalKind::terminate()).map_err(DriverError::Signals)?;
+    let (set, flag) = tokio::sync::watch::channel(false);
+    tokio::spawn(async move {
+        tokio::select! {
+            _ = interrupt.recv() => {}
+            _ = terminate.recv() => {}
+        }
+        let _ = set.send(true);
+    });
+    Ok(flag)
 }
 
 impl<E: Executor> Driver<'_, E> {
+    /// True once Ctrl-C or SIGTERM came.
+    fn stopped(&self) -> bool {
+        *self.stop.borrow()
+    }
+
     /// Jobs caught between render and launch by a stopped `orch`: re-attached when the
     /// executor still knows them (Slurm), else rendered again.
     async fn reconcile(&mut self) -> Result<(), DriverError> {
@@ -554,6 +586,28 @@ impl<E: Executor> Driver<'_, E> {
         let Some(source) = self.store.succeeded_run(identity, job.id).await? else {
             return Ok(false);
         };
+        // The run is the same; what counts as a success is this study's to say.
+        let stored = RunResults {
+            responses: self
+                .store
+                .job_responses(source.job_id)
+                .await?
+                .into_iter()
+                .collect(),
+            ..RunResults::default()
+        };
+        if let Some(missing) = self.missing_responses(job, &stored) {
+            if self.study.fail_on_missing_response {
+                let reason = format!(
+                    "the same run as {} (not run again), which {}",
+                    source.name,
+                    source.note.as_deref().unwrap_or(&missing)
+                );
+                self.report(job, &format!("failed: {reason}"));
+                self.store.mark_failed(job.id, Some(0), &reason).await?;
+                return Ok(true);
+            }
+        }
         if let Err(e) = crate::identity::link_run(&source.run_dir, Path::new(&job.run_dir)) {
             self.report(
                 job,
@@ -833,12 +887,26 @@ impl<E: Executor> Driver<'_, E> {
             None => None,
         };
         let dir = PathBuf::from(&job.run_dir);
-        let parsed = tokio::task::spawn_blocking(move || match stage {
+        if self.stopped() {
+            self.uncollected.insert(job.id);
+            return Ok(());
+        }
+        let parse = tokio::task::spawn_blocking(move || match stage {
             Some(stage) => stage.results(&dir),
             None => simulation.results(&case, &dir),
-        })
-        .await
-        .unwrap_or_else(|e| panic!("the parser of {} panicked: {e}", job.name));
+        });
+        // Reading a large output takes long; Ctrl-C or SIGTERM does not wait for it.
+        // The job stays running in the store, and `orch resume` reads it.
+        let mut stop = self.stop.clone();
+        let parsed = tokio::select! {
+            joined = parse => {
+                joined.unwrap_or_else(|e| panic!("the parser of {} panicked: {e}", job.name))
+            }
+            _ = stop.wait_for(|stopped| *stopped) => {
+                self.uncollected.insert(job.id);
+                return Ok(());
+            }
+        };
         match parsed {
             Ok(results) => {
                 let missing = self.missing_responses(job, &results);
@@ -850,7 +918,10 @@ impl<E: Executor> Driver<'_, E> {
                         return Ok(());
                     }
                     self.report(job, &reason);
-                    results.note = Some(reason);
+                    results.note = Some(match results.note.take() {
+                        Some(note) => format!("{reason}; {note}"),
+                        None => reason,
+                    });
                 }
                 if let Some(stopped) = convergence::stopped_early(Path::new(&job.run_dir)) {
                     results.note = Some(match results.note.take() {
@@ -902,7 +973,9 @@ impl<E: Executor> Driver<'_, E> {
     /// Ctrl-C / SIGTERM: local jobs are stopped and put back; jobs on a batch
     /// scheduler keep running there and `orch resume` re-attaches to them.
     async fn interrupt(&mut self) -> Result<Ending, DriverError> {
-        let jobs = self.store.jobs(self.study_id).await?;
+        let mut jobs = self.store.jobs(self.study_id).await?;
+        // A job that ended but was not read yet is left running, for resume to read.
+        jobs.retain(|job| !self.uncollected.contains(&job.id));
         if self.budgets.batch {
             let left = jobs.iter().filter(|j| is_launched(j.state())).count();
             errln!(
@@ -1040,16 +1113,23 @@ impl<E: Executor> Driver<'_, E> {
     }
 }
 
-/// What the store keeps of a run's results.
+/// What the store keeps of a run's results: every series bounded to
+/// [`orch_adapters::thin::MAX_SERIES_POINTS`], and what was thinned said in the note.
 fn job_results(results: RunResults) -> JobResults {
+    let mut notes = results.notes;
+    let series = results
+        .series
+        .into_iter()
+        .map(|series| {
+            let (series, note) = orch_adapters::thin::bound_series(series);
+            notes.extend(note);
+            (series.name, series.points)
+        })
+        .collect();
     JobResults {
-        note: None,
+        note: (!notes.is_empty()).then(|| notes.join("; ")),
         responses: results.responses,
-        series: results
-            .series
-            .into_iter()
-            .map(|s| (s.name, s.points))
-            .collect(),
+        series,
     }
 }
 

@@ -7,6 +7,7 @@
 
 mod air;
 mod architecture;
+mod bounds;
 mod chute;
 mod compare;
 mod concurrency;

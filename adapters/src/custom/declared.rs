@@ -11,6 +11,7 @@
 use std::io::BufRead;
 use std::path::Path;
 
+use crate::thin::{thinned_note, Thinned, MAX_SERIES_POINTS};
 use crate::{numbered_lines, open_in_run_dir, ParseError, Series};
 
 /// How a series of values becomes one response.
@@ -63,36 +64,71 @@ impl Reduction {
     /// Applies the reduction to `(time, value)` points in time order; `None` when there
     /// are too few points (none; fewer than two for slope, integral and std).
     pub fn apply(self, points: &[(f64, f64)]) -> Option<f64> {
-        let n = points.len();
-        let values = || points.iter().map(|p| p.1);
-        match self {
-            Reduction::Last => points.last().map(|p| p.1),
-            Reduction::Mean => (n > 0).then(|| values().sum::<f64>() / n as f64),
-            Reduction::Min => values().reduce(f64::min),
-            Reduction::Max => values().reduce(f64::max),
-            Reduction::Slope => {
-                if n < 2 {
-                    return None;
-                }
-                let t_mean = points.iter().map(|p| p.0).sum::<f64>() / n as f64;
-                let v_mean = values().sum::<f64>() / n as f64;
-                let (mut sxy, mut sxx) = (0.0, 0.0);
-                for &(t, v) in points {
-                    sxy += (t - t_mean) * (v - v_mean);
-                    sxx += (t - t_mean) * (t - t_mean);
-                }
-                (sxx > 0.0).then(|| sxy / sxx)
-            }
-            Reduction::Integral => (n >= 2).then(|| {
-                points
-                    .windows(2)
-                    .map(|w| 0.5 * (w[0].1 + w[1].1) * (w[1].0 - w[0].0))
-                    .sum()
-            }),
-            Reduction::Std => (n >= 2).then(|| {
-                let mean = values().sum::<f64>() / n as f64;
-                (values().map(|v| (v - mean) * (v - mean)).sum::<f64>() / (n - 1) as f64).sqrt()
-            }),
+        let mut running = Running::default();
+        for &point in points {
+            running.push(point);
+        }
+        running.value(self)
+    }
+}
+
+/// One pass over a window's points with what every [`Reduction`] needs, so that a
+/// series of any length is reduced without being held: counts, sums, extremes, the
+/// trapezoidal integral, and the means and co-moments of time and value by Welford's
+/// update (Welford 1962; for the co-moment, Pébay, Sandia report SAND2008-6212), which
+/// stays accurate where `Σt² − n·t̄²` would cancel.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Running {
+    n: usize,
+    last: Option<(f64, f64)>,
+    sum: f64,
+    min: Option<f64>,
+    max: Option<f64>,
+    integral: f64,
+    mean_t: f64,
+    mean_v: f64,
+    m2_t: f64,
+    m2_v: f64,
+    co_tv: f64,
+}
+
+impl Running {
+    /// Adds the next point (in time order).
+    pub fn push(&mut self, (t, v): (f64, f64)) {
+        if let Some((t0, v0)) = self.last {
+            self.integral += 0.5 * (v0 + v) * (t - t0);
+        }
+        self.n += 1;
+        let n = self.n as f64;
+        let dt = t - self.mean_t;
+        let dv = v - self.mean_v;
+        self.mean_t += dt / n;
+        self.mean_v += dv / n;
+        self.m2_t += dt * (t - self.mean_t);
+        self.m2_v += dv * (v - self.mean_v);
+        self.co_tv += dt * (v - self.mean_v);
+        self.sum += v;
+        self.min = Some(self.min.map_or(v, |m| m.min(v)));
+        self.max = Some(self.max.map_or(v, |m| m.max(v)));
+        self.last = Some((t, v));
+    }
+
+    /// Points pushed.
+    pub fn count(&self) -> usize {
+        self.n
+    }
+
+    /// The reduction's value, or `None` with too few points.
+    pub fn value(&self, reduction: Reduction) -> Option<f64> {
+        let n = self.n;
+        match reduction {
+            Reduction::Last => self.last.map(|p| p.1),
+            Reduction::Mean => (n > 0).then(|| self.sum / n as f64),
+            Reduction::Min => self.min,
+            Reduction::Max => self.max,
+            Reduction::Slope => (n >= 2 && self.m2_t > 0.0).then(|| self.co_tv / self.m2_t),
+            Reduction::Integral => (n >= 2).then_some(self.integral),
+            Reduction::Std => (n >= 2).then(|| (self.m2_v / (n - 1) as f64).sqrt()),
         }
     }
 }
@@ -189,8 +225,9 @@ pub struct DeclaredResponse {
 }
 
 impl DeclaredResponse {
-    /// Reads the response from a finished run: its value, and its whole series.
-    pub fn read(&self, run_dir: &Path) -> Result<(f64, Series), ParseError> {
+    /// Reads the response from a finished run in one streaming pass: its value over the
+    /// window from every point, and its series bounded to [`MAX_SERIES_POINTS`].
+    pub fn read(&self, run_dir: &Path) -> Result<Read, ParseError> {
         let (reader, path) =
             open_in_run_dir(run_dir, self.source.file()).map_err(|error| match error {
                 ParseError::Read { path, source }
@@ -207,44 +244,62 @@ impl DeclaredResponse {
                 }
                 other => other,
             })?;
-        let points = match &self.source {
+        let mut window = Running::default();
+        let mut series = Thinned::new(MAX_SERIES_POINTS);
+        let mut sink = |point: (f64, f64)| {
+            let (t, _) = point;
+            if self.from.is_none_or(|from| t >= from) && self.to.is_none_or(|to| t <= to) {
+                window.push(point);
+            }
+            series.push(point);
+        };
+        match &self.source {
             Source::Table {
                 column,
                 time_column,
                 ..
-            } => read_table_column(reader, &path, column, time_column)?,
-            Source::Regex { pattern, .. } => read_regex_matches(reader, &path, pattern)?,
-            Source::Json { key, .. } => read_json_values(reader, &path, key)?,
-        };
-        let window: Vec<(f64, f64)> = points
-            .iter()
-            .copied()
-            .filter(|(t, _)| self.from.is_none_or(|from| *t >= from))
-            .filter(|(t, _)| self.to.is_none_or(|to| *t <= to))
-            .collect();
-        let value = self
-            .reduce
-            .apply(&window)
+            } => for_each_table_row(reader, &path, column, time_column, &mut sink)?,
+            Source::Regex { pattern, .. } => {
+                for_each_regex_match(reader, &path, pattern, &mut sink)?
+            }
+            Source::Json { key, .. } => for_each_json_value(reader, &path, key, &mut sink)?,
+        }
+        let value = window
+            .value(self.reduce)
             .ok_or_else(|| ParseError::Unusable {
                 path: path.clone(),
                 message: format!(
                     "response `{}`: {} values in the window [{}, {}] of {} read, too few for `{}`",
                     self.name,
-                    window.len(),
+                    window.count(),
                     self.from.map_or("first".to_string(), |v| v.to_string()),
                     self.to.map_or("last".to_string(), |v| v.to_string()),
-                    points.len(),
+                    series.seen(),
                     self.reduce.name()
                 ),
             })?;
-        Ok((
+        let (points, seen) = series.finish();
+        let note = (seen > points.len()).then(|| thinned_note(&self.name, seen, points.len()));
+        Ok(Read {
             value,
-            Series {
+            series: Series {
                 name: self.name.clone(),
                 points,
             },
-        ))
+            note,
+        })
     }
+}
+
+/// What a declared response read from a finished run.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Read {
+    /// The reduced value.
+    pub value: f64,
+    /// Its series, bounded to [`MAX_SERIES_POINTS`] (+ the last point).
+    pub series: Series,
+    /// Why the series holds fewer points than were read, if it does.
+    pub note: Option<String>,
 }
 
 /// Splits a table line into fields: on commas when it has any, else on white space.
@@ -256,18 +311,32 @@ fn fields(line: &str) -> Vec<&str> {
     }
 }
 
-/// `(time, value)` rows of a table file's two columns. Lines starting with `#` are
-/// comments, the last one before the data naming the columns; a first line that is not
-/// numbers is a header too.
+/// [`for_each_table_row`]'s rows collected (for tests).
+#[cfg(test)]
 pub fn read_table_column<R: BufRead>(
     reader: R,
     path: &Path,
     column: &Column,
     time_column: &Column,
 ) -> Result<Vec<(f64, f64)>, ParseError> {
+    let mut points = Vec::new();
+    for_each_table_row(reader, path, column, time_column, &mut |p| points.push(p))?;
+    Ok(points)
+}
+
+/// The `(time, value)` rows of a table file's two columns, each handed to `sink` as
+/// it is read. Lines starting with `#` are comments, the last one before the data
+/// naming the columns; a first line that is not numbers is a header too.
+pub fn for_each_table_row<R: BufRead>(
+    reader: R,
+    path: &Path,
+    column: &Column,
+    time_column: &Column,
+    sink: &mut dyn FnMut((f64, f64)),
+) -> Result<(), ParseError> {
     let mut header: Option<Vec<String>> = None;
     let mut indices: Option<(usize, usize)> = None;
-    let mut points = Vec::new();
+    let mut rows = 0_usize;
     for numbered in numbered_lines(reader, path) {
         let (number, line) = numbered?;
         let trimmed = line.trim();
@@ -283,7 +352,7 @@ pub fn read_table_column<R: BufRead>(
         let row = fields(trimmed);
         let numbers: Option<Vec<f64>> = row.iter().map(|f| f.parse().ok()).collect();
         let Some(numbers) = numbers else {
-            if indices.is_none() && points.is_empty() {
+            if indices.is_none() && rows == 0 {
                 header = Some(row.iter().map(|s| s.to_string()).collect());
                 continue;
             }
@@ -323,9 +392,10 @@ pub fn read_table_column<R: BufRead>(
                 format!("expected finite numbers, found `{trimmed}`"),
             ));
         }
-        points.push((*time, *value));
+        sink((*time, *value));
+        rows += 1;
     }
-    Ok(points)
+    Ok(())
 }
 
 /// The 0-based position of `column` in a row of `width` numbers under `header`.
@@ -358,13 +428,27 @@ fn position(column: &Column, header: Option<&[String]>, width: usize) -> Result<
     }
 }
 
-/// Every match of `pattern`'s first group, numbered from 1 as its "time".
+/// [`for_each_regex_match`]'s matches collected (for tests).
+#[cfg(test)]
 pub fn read_regex_matches<R: BufRead>(
     reader: R,
     path: &Path,
     pattern: &regex::Regex,
 ) -> Result<Vec<(f64, f64)>, ParseError> {
     let mut points = Vec::new();
+    for_each_regex_match(reader, path, pattern, &mut |p| points.push(p))?;
+    Ok(points)
+}
+
+/// Every match of `pattern`'s first group, numbered from 1 as its "time", handed to
+/// `sink` as it is found.
+pub fn for_each_regex_match<R: BufRead>(
+    reader: R,
+    path: &Path,
+    pattern: &regex::Regex,
+    sink: &mut dyn FnMut((f64, f64)),
+) -> Result<(), ParseError> {
+    let mut matches = 0_usize;
     for numbered in numbered_lines(reader, path) {
         let (number, line) = numbered?;
         for captures in pattern.captures_iter(&line) {
@@ -382,46 +466,198 @@ pub fn read_regex_matches<R: BufRead>(
                     ),
                 )
             })?;
-            points.push(((points.len() + 1) as f64, value));
+            matches += 1;
+            sink((matches as f64, value));
         }
     }
-    Ok(points)
+    Ok(())
 }
 
-/// The number, or array of numbers (index as "time"), at `key` of a JSON file.
+/// [`for_each_json_value`]'s numbers collected (for tests).
+#[cfg(test)]
 pub fn read_json_values<R: BufRead>(
     reader: R,
     path: &Path,
     key: &str,
 ) -> Result<Vec<(f64, f64)>, ParseError> {
-    let document: serde_json::Value = serde_json::from_reader(reader)
-        .map_err(|e| ParseError::malformed(path, e.line(), format!("not JSON: {e}")))?;
-    let mut value = &document;
-    for part in key.split('.').filter(|p| !p.is_empty()) {
-        let next = match value {
-            serde_json::Value::Array(items) => {
-                part.parse::<usize>().ok().and_then(|i| items.get(i))
-            }
-            other => other.get(part),
-        };
-        value = next.ok_or_else(|| ParseError::Unusable {
+    let mut points = Vec::new();
+    for_each_json_value(reader, path, key, &mut |p| points.push(p))?;
+    Ok(points)
+}
+
+/// The number, or array of numbers (index as "time"), at `key` of a JSON file, in one
+/// streaming pass: the document is not built in memory;
+/// everything off the key's path is skipped, and the numbers at the key are handed to
+/// `sink` one by one (a 100 MB array holds no more than one number at a time).
+pub fn for_each_json_value<R: BufRead>(
+    reader: R,
+    path: &Path,
+    key: &str,
+    sink: &mut dyn FnMut((f64, f64)),
+) -> Result<(), ParseError> {
+    let parts: Vec<&str> = key.split('.').filter(|p| !p.is_empty()).collect();
+    let mut miss = None;
+    let mut deserializer = serde_json::Deserializer::from_reader(reader);
+    let walked = serde::de::DeserializeSeed::deserialize(
+        KeyPath {
+            parts: &parts,
+            key,
+            sink,
+            miss: &mut miss,
+        },
+        &mut deserializer,
+    )
+    .and_then(|()| deserializer.end());
+    match (miss, walked) {
+        (Some(message), _) => Err(ParseError::Unusable {
             path: path.to_path_buf(),
-            message: format!("no `{part}` on the way to key `{key}`"),
-        })?;
+            message,
+        }),
+        (None, Err(e)) => Err(ParseError::malformed(
+            path,
+            e.line(),
+            format!("not JSON: {e}"),
+        )),
+        (None, Ok(())) => Ok(()),
     }
-    let number = |v: &serde_json::Value| {
-        v.as_f64().ok_or_else(|| ParseError::Unusable {
-            path: path.to_path_buf(),
-            message: format!("`{key}` holds {v}, not a number"),
-        })
-    };
-    match value {
-        serde_json::Value::Array(items) => items
-            .iter()
-            .enumerate()
-            .map(|(i, v)| Ok((i as f64, number(v)?)))
-            .collect(),
-        single => Ok(vec![(0.0, number(single)?)]),
+}
+
+/// The walk down a JSON document to `parts` (object keys, array indices), skipping
+/// everything else; a step that is not there sets `miss` and stops the walk.
+struct KeyPath<'a, 'k> {
+    parts: &'a [&'k str],
+    key: &'a str,
+    sink: &'a mut dyn FnMut((f64, f64)),
+    miss: &'a mut Option<String>,
+}
+
+impl KeyPath<'_, '_> {
+    /// Stops the walk with `message` as the reason.
+    fn stop<E: serde::de::Error>(self, message: String) -> E {
+        *self.miss = Some(message);
+        E::custom("stopped")
+    }
+
+    fn not_a_number<E: serde::de::Error>(self, what: &str) -> E {
+        let message = format!("`{}` holds {what}, not a number", self.key);
+        self.stop(message)
+    }
+}
+
+impl<'de> serde::de::DeserializeSeed<'de> for KeyPath<'_, '_> {
+    type Value = ();
+
+    fn deserialize<D: serde::Deserializer<'de>>(self, deserializer: D) -> Result<(), D::Error> {
+        deserializer.deserialize_any(self)
+    }
+}
+
+impl<'de> serde::de::Visitor<'de> for KeyPath<'_, '_> {
+    type Value = ();
+
+    fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "a JSON value")
+    }
+
+    fn visit_f64<E: serde::de::Error>(self, v: f64) -> Result<(), E> {
+        if let Some(part) = self.parts.first() {
+            let message = format!("no `{part}` on the way to key `{}`", self.key);
+            return Err(self.stop(message));
+        }
+        (self.sink)((0.0, v));
+        Ok(())
+    }
+
+    fn visit_i64<E: serde::de::Error>(self, v: i64) -> Result<(), E> {
+        self.visit_f64(v as f64)
+    }
+
+    fn visit_u64<E: serde::de::Error>(self, v: u64) -> Result<(), E> {
+        self.visit_f64(v as f64)
+    }
+
+    fn visit_bool<E: serde::de::Error>(self, v: bool) -> Result<(), E> {
+        self.visit_other(&v.to_string())
+    }
+
+    fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<(), E> {
+        self.visit_other(&format!("{v:?}"))
+    }
+
+    fn visit_unit<E: serde::de::Error>(self) -> Result<(), E> {
+        self.visit_other("null")
+    }
+
+    fn visit_map<A: serde::de::MapAccess<'de>>(self, mut map: A) -> Result<(), A::Error> {
+        let Some((&part, rest)) = self.parts.split_first() else {
+            return Err(self.not_a_number("an object"));
+        };
+        while let Some(name) = map.next_key::<std::borrow::Cow<'_, str>>()? {
+            if name == part {
+                map.next_value_seed(KeyPath {
+                    parts: rest,
+                    key: self.key,
+                    sink: self.sink,
+                    miss: self.miss,
+                })?;
+                while map
+                    .next_entry::<serde::de::IgnoredAny, serde::de::IgnoredAny>()?
+                    .is_some()
+                {}
+                return Ok(());
+            }
+            map.next_value::<serde::de::IgnoredAny>()?;
+        }
+        let message = format!("no `{part}` on the way to key `{}`", self.key);
+        Err(self.stop(message))
+    }
+
+    fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut seq: A) -> Result<(), A::Error> {
+        if let Some((&part, rest)) = self.parts.split_first() {
+            let wanted = part.parse::<usize>().ok();
+            let mut index = 0;
+            loop {
+                if Some(index) == wanted {
+                    let seed = KeyPath {
+                        parts: rest,
+                        key: self.key,
+                        sink: &mut *self.sink,
+                        miss: &mut *self.miss,
+                    };
+                    if seq.next_element_seed(seed)?.is_none() {
+                        break;
+                    }
+                    while seq.next_element::<serde::de::IgnoredAny>()?.is_some() {}
+                    return Ok(());
+                }
+                if seq.next_element::<serde::de::IgnoredAny>()?.is_none() {
+                    break;
+                }
+                index += 1;
+            }
+            let message = format!("no `{part}` on the way to key `{}`", self.key);
+            return Err(self.stop(message));
+        }
+        let mut index = 0_usize;
+        while let Some(element) = seq.next_element::<serde_json::Value>()? {
+            let Some(v) = element.as_f64() else {
+                return Err(self.not_a_number(&format!("{element} at index {index}")));
+            };
+            (self.sink)((index as f64, v));
+            index += 1;
+        }
+        Ok(())
+    }
+}
+
+impl KeyPath<'_, '_> {
+    /// A scalar that is not a number: a miss if the path goes on, else not a number.
+    fn visit_other<E: serde::de::Error>(self, what: &str) -> Result<(), E> {
+        if let Some(part) = self.parts.first() {
+            let message = format!("no `{part}` on the way to key `{}`", self.key);
+            return Err(self.stop(message));
+        }
+        Err(self.not_a_number(what))
     }
 }
 
@@ -528,6 +764,101 @@ mod tests {
     }
 
     #[test]
+    fn json_walks_through_arrays_and_names_what_is_not_a_number() {
+        let json =
+            r#"{"runs": [{"v": [1, 2]}, {"v": [3, "x", 5]}], "skipped": {"deep": [[1], {}]}}"#;
+        let read = |key: &str| read_json_values(Cursor::new(json), Path::new("r.json"), key);
+        assert_eq!(read("runs.0.v").unwrap(), [(0.0, 1.0), (1.0, 2.0)]);
+        assert_eq!(read("runs.1.v.2").unwrap(), [(0.0, 5.0)]);
+        assert_eq!(
+            read("runs.1.v").unwrap_err().to_string(),
+            "r.json: `runs.1.v` holds \"x\" at index 1, not a number"
+        );
+        assert_eq!(
+            read("runs.2").unwrap_err().to_string(),
+            "r.json: no `2` on the way to key `runs.2`"
+        );
+        assert_eq!(
+            read("runs").unwrap_err().to_string(),
+            "r.json: `runs` holds {\"v\":[1,2]} at index 0, not a number"
+        );
+        let bad = read_json_values(Cursor::new("{\"a\": [1,\n 2,"), Path::new("r.json"), "a");
+        assert!(
+            bad.unwrap_err()
+                .to_string()
+                .starts_with("r.json:2: not JSON: "),
+            "a syntax error names its line"
+        );
+    }
+
+    #[test]
+    fn a_response_of_millions_of_values_is_reduced_from_all_and_stores_a_bounded_series() {
+        let dir = tempfile::tempdir().unwrap();
+        let n = 2_000_000_usize;
+        let mut json = String::with_capacity(16 * n);
+        json.push_str("{\"flow\": [");
+        for i in 0..n {
+            if i > 0 {
+                json.push(',');
+            }
+            json.push_str(&(i % 1000).to_string());
+        }
+        json.push_str("]}");
+        std::fs::write(dir.path().join("r.json"), json).unwrap();
+        let response = DeclaredResponse {
+            name: "flow".into(),
+            unit: "kg/s".into(),
+            source: Source::Json {
+                file: "r.json".into(),
+                key: "flow".into(),
+            },
+            reduce: Reduction::Mean,
+            from: None,
+            to: None,
+        };
+        let read = response.read(dir.path()).unwrap();
+        assert_eq!(
+            read.value, 499.5,
+            "the mean of every value, not of the stored ones"
+        );
+        assert!(read.series.points.len() <= MAX_SERIES_POINTS + 1);
+        assert_eq!(read.series.points.last(), Some(&((n - 1) as f64, 999.0)));
+        let note = read.note.unwrap();
+        assert!(
+            note.starts_with("series `flow` had 2000000 points; "),
+            "{note}"
+        );
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn the_one_pass_reductions_equal_the_two_pass_formulas(
+            values in proptest::collection::vec(-1e3_f64..1e3, 2..200),
+            t0 in -1e6_f64..1e6,
+        ) {
+            let points: Vec<(f64, f64)> = values
+                .iter()
+                .enumerate()
+                .map(|(i, &v)| (t0 + 0.5 * i as f64, v))
+                .collect();
+            let n = points.len() as f64;
+            let mean = values.iter().sum::<f64>() / n;
+            let t_mean = points.iter().map(|p| p.0).sum::<f64>() / n;
+            let (mut sxy, mut sxx, mut svv) = (0.0, 0.0, 0.0);
+            for &(t, v) in &points {
+                sxy += (t - t_mean) * (v - mean);
+                sxx += (t - t_mean) * (t - t_mean);
+                svv += (v - mean) * (v - mean);
+            }
+            let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * (1.0 + b.abs());
+            let r = |reduction: Reduction| reduction.apply(&points).unwrap();
+            proptest::prop_assert!(close(r(Reduction::Mean), mean));
+            proptest::prop_assert!(close(r(Reduction::Slope), sxy / sxx));
+            proptest::prop_assert!(close(r(Reduction::Std), (svv / (n - 1.0)).sqrt()));
+        }
+    }
+
+    #[test]
     fn a_declared_response_reduces_its_window_and_keeps_its_series() {
         let dir = tempfile::tempdir().unwrap();
         std::fs::create_dir_all(dir.path().join("post")).unwrap();
@@ -544,9 +875,10 @@ mod tests {
             from: Some(2000.0),
             to: None,
         };
-        let (value, series) = response.read(dir.path()).unwrap();
-        assert_eq!(value, 2.0);
-        assert_eq!(series.points.len(), 3);
+        let read = response.read(dir.path()).unwrap();
+        assert_eq!(read.value, 2.0);
+        assert_eq!(read.series.points.len(), 3);
+        assert_eq!(read.note, None);
         let missing = DeclaredResponse {
             source: Source::Table {
                 file: "post/w.txt".into(),

@@ -212,9 +212,10 @@ impl Simulation for CustomDeck {
     fn results(&self, _case: &Case, run_dir: &Path) -> Result<RunResults, ParseError> {
         let mut results = RunResults::default();
         for response in &self.responses {
-            let (value, series) = response.read(run_dir)?;
-            results.responses.push((response.name.clone(), value));
-            results.series.push(series);
+            let read = response.read(run_dir)?;
+            results.responses.push((response.name.clone(), read.value));
+            results.series.push(read.series);
+            results.notes.extend(read.note);
         }
         Ok(results)
     }

@@ -501,6 +501,7 @@ pub fn parse(run_dir: &Path) -> Result<RunResults, ParseError> {
             },
         ],
         missing: Vec::new(),
+        notes: Vec::new(),
     })
 }
 

@@ -59,6 +59,12 @@ pub fn label(name: &str, unit: &str) -> String {
     escape(&crate::export::header(name, Some(unit)))
 }
 
+/// `name [unit]` for a figure's axis or title, as plain text: the SVG backend escapes
+/// what it draws, so text escaped here would show its entities (`&lt;1&gt;`).
+pub fn svg_label(name: &str, unit: &str) -> String {
+    crate::export::header(name, Some(unit))
+}
+
 /// A table: escaped header cells, and body cells that are already HTML.
 pub fn table(headers: &[String], rows: &[Vec<String>]) -> String {
     let mut out = String::from("<div class=\"scroll\"><table><thead><tr>");
@@ -137,5 +143,16 @@ mod tests {
         );
         assert_eq!(with_unit(0.5, "kg/s"), "0.5 kg/s");
         assert_eq!(with_unit(0.5, "-"), "0.5");
+    }
+
+    #[test]
+    fn a_unit_with_markup_is_escaped_once_in_tables_and_once_in_figures() {
+        assert_eq!(label("y", "<1>"), "y [&lt;1&gt;]");
+        let svg = super::super::plots::pareto(
+            &format!("Pareto chart: {}", svg_label("y", "<1>")),
+            &[("a".into(), 1.0)],
+        );
+        assert!(svg.contains("Pareto chart: y [&lt;1&gt;]"), "{svg}");
+        assert!(!svg.contains("&amp;lt;"), "escaped twice: {svg}");
     }
 }

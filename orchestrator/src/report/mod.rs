@@ -25,7 +25,7 @@ use crate::export::unit_of;
 use crate::store::{FactorRow, Store, StoreError, StoredFit, StoredRound, StudyRow};
 use crate::study::Study;
 use crate::surfaces::{self, Observed, Run};
-use html::{escape, figure, label, number, table, with_unit};
+use html::{escape, figure, label, number, svg_label, table, with_unit};
 
 /// What the report is made from, read from the store at once.
 struct Data<'a> {
@@ -299,8 +299,8 @@ fn trust_region(data: &Data<'_>, round: &StoredRound) -> String {
             })
             .collect();
         let svg = plots::boxes(
-            &label(&f[0].name, &f[0].unit),
-            &label(&f[1].name, &f[1].unit),
+            &svg_label(&f[0].name, &f[0].unit),
+            &svg_label(&f[1].name, &f[1].unit),
             [(f[0].min, f[0].max), (f[1].min, f[1].max)],
             &boxes,
         );
@@ -319,7 +319,7 @@ fn trust_region(data: &Data<'_>, round: &StoredRound) -> String {
                     )
                 })
                 .collect();
-            let svg = plots::intervals(&label(&f.name, &f.unit), (f.min, f.max), &bars);
+            let svg = plots::intervals(&svg_label(&f.name, &f.unit), (f.min, f.max), &bars);
             out.push_str(&figure(
                 &svg,
                 "Each round's range (bar) and optimum (cross).",
@@ -528,16 +528,16 @@ fn surface_figures(
             .collect()
     };
     let optimum = optimum_point(data, round);
-    let z_label = label(&fit.response, unit);
+    let z_label = svg_label(&fit.response, unit);
     let f = &data.factors;
     match f.len() {
         2 => {
             let points: Vec<(f64, f64)> = observed.natural.iter().map(|p| (p[0], p[1])).collect();
             let svg = plots::heatmap(
                 &format!("Response surface: {}", fit.response),
-                &label(&f[0].name, &f[0].unit),
+                &svg_label(&f[0].name, &f[0].unit),
                 (ranges[0].min, ranges[0].max),
-                &label(&f[1].name, &f[1].unit),
+                &svg_label(&f[1].name, &f[1].unit),
                 (ranges[1].min, ranges[1].max),
                 &z_label,
                 |x, y| surface.predict(&coded(&[x, y])),
@@ -574,7 +574,7 @@ fn surface_figures(
                 };
                 let svg = plots::lines(
                     &format!("Response surface: {} along {}", fit.response, factor.name),
-                    &label(&factor.name, &factor.unit),
+                    &svg_label(&factor.name, &factor.unit),
                     &z_label,
                     &[(fit.response.clone(), curve)],
                     &points,
@@ -852,7 +852,7 @@ async fn runs_section(store: &Store, data: &Data<'_>) -> Result<String, StoreErr
         let svg = plots::lines(
             &format!("Series: {name}"),
             &over,
-            &label(name, &unit),
+            &svg_label(name, &unit),
             &lines,
             &[],
             None,

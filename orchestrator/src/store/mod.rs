@@ -151,6 +151,8 @@ pub struct ReuseSource {
     pub name: String,
     /// Its run directory.
     pub run_dir: PathBuf,
+    /// What its study noted when it succeeded (a response it lacks, and why).
+    pub note: Option<String>,
 }
 
 /// The open store of one project directory.
@@ -997,8 +999,8 @@ impl Store {
         identity: &str,
         job_id: i64,
     ) -> Result<Option<ReuseSource>, StoreError> {
-        let row: Option<(i64, String, String)> = sqlx::query_as(
-            "SELECT j.id, s.name || '/' || j.name, j.run_dir FROM jobs j JOIN studies s ON s.id = j.study_id
+        let row: Option<(i64, String, String, Option<String>)> = sqlx::query_as(
+            "SELECT j.id, s.name || '/' || j.name, j.run_dir, j.error FROM jobs j JOIN studies s ON s.id = j.study_id
              WHERE j.identity = ? AND j.state = 'succeeded' AND j.id <> ?
              ORDER BY j.reused_from_job IS NOT NULL, j.id LIMIT 1",
         )
@@ -1007,10 +1009,11 @@ impl Store {
         .fetch_optional(&self.pool)
         .await
         .map_err(query_error("look for an identical run"))?;
-        Ok(row.map(|(job_id, name, run_dir)| ReuseSource {
+        Ok(row.map(|(job_id, name, run_dir, note)| ReuseSource {
             job_id,
             name,
             run_dir: PathBuf::from(run_dir),
+            note,
         }))
     }
 

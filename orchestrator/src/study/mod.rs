@@ -519,9 +519,7 @@ impl Study {
     /// may hold.
     pub fn rename(&mut self, name: &str) -> Result<(), String> {
         if !is_study_name(name) {
-            return Err(format!(
-                "--as {name}: expected letters, digits, `-` or `_` (it names folders)"
-            ));
+            return Err(format!("--as: {}", study_name_rule(name)));
         }
         self.name = name.to_string();
         Ok(())
@@ -623,9 +621,57 @@ fn known_responses<'a>(simulation: &'a dyn Simulation, stages: &[StageConfig]) -
 /// True for a name that can name folders: letters, digits, `-` and `_`.
 fn is_study_name(name: &str) -> bool {
     !name.is_empty()
+        && name.len() <= MAX_STUDY_NAME
         && name
             .chars()
             .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_')
+}
+
+/// The field path (`factors[0].max`) and value of the first number in `value` that is
+/// not finite (`.inf`, `.nan`, or a literal too large for a float, as `1e400`).
+fn first_non_finite(value: &serde_yaml_ng::Value, path: String) -> Option<(String, f64)> {
+    use serde_yaml_ng::Value;
+    match value {
+        Value::Number(n) => n.as_f64().filter(|v| !v.is_finite()).map(|v| (path, v)),
+        Value::Sequence(items) => items
+            .iter()
+            .enumerate()
+            .find_map(|(i, item)| first_non_finite(item, format!("{path}[{i}]"))),
+        Value::Mapping(map) => map.iter().find_map(|(key, item)| {
+            let key = match key {
+                Value::String(key) => key.clone(),
+                other => serde_yaml_ng::to_string(other)
+                    .unwrap_or_default()
+                    .trim()
+                    .to_string(),
+            };
+            let path = if path.is_empty() {
+                key
+            } else {
+                format!("{path}.{key}")
+            };
+            first_non_finite(item, path)
+        }),
+        Value::Tagged(tagged) => first_non_finite(&tagged.value, path),
+        _ => None,
+    }
+}
+
+/// The longest study name: a name is a folder (`runs/NAME/`) and part of the file names
+/// orch derives from it (`reports/NAME-noise.html`, 11 bytes more), and file systems
+/// allow 255 bytes per name (Linux's `NAME_MAX`); 200 leaves room for both.
+pub const MAX_STUDY_NAME: usize = 200;
+
+/// What a study name may hold, for messages.
+fn study_name_rule(name: &str) -> String {
+    if name.len() > MAX_STUDY_NAME {
+        format!(
+            "expected at most {MAX_STUDY_NAME} characters (it names folders and files, and file systems allow 255 bytes per name), got {}",
+            name.len()
+        )
+    } else {
+        format!("expected letters, digits, `-` or `_` (it names folders), got `{name}`")
+    }
 }
 
 /// SHA-256 of the study file's text, plus, when the study has them, its own template
@@ -956,13 +1002,15 @@ impl Checker<'_> {
 
     fn validate(&self, file: StudyFile, text: &str) -> Result<Study, StudyError> {
         if !is_study_name(&file.name) {
-            return Err(self.error(
-                "name",
-                format!(
-                    "expected letters, digits, `-` or `_` (it names folders), got `{}`",
-                    file.name
-                ),
-            ));
+            return Err(self.error("name", study_name_rule(&file.name)));
+        }
+        if let Ok(tree) = serde_yaml_ng::from_str::<serde_yaml_ng::Value>(text) {
+            if let Some((field, value)) = first_non_finite(&tree, String::new()) {
+                return Err(self.error(
+                    &field,
+                    format!("expected a finite number, got {value}: every value, range and bound of a study must be finite"),
+                ));
+            }
         }
         let mut inputs = Vec::new();
         let (simulation, deck): (Arc<dyn Simulation>, _) =
@@ -1004,6 +1052,15 @@ impl Checker<'_> {
             }
             if !(factor.min.is_finite() && factor.max.is_finite()) {
                 return Err(self.error(&at("min"), "expected finite numbers for min and max"));
+            }
+            if !(factor.max - factor.min).is_finite() {
+                return Err(self.error(
+                    &at("max"),
+                    format!(
+                        "the range [{:?}, {:?}] is wider than a number can hold (max − min overflows), so its design points would be infinite; give a range in SI units that fits the equipment",
+                        factor.min, factor.max
+                    ),
+                ));
             }
             if factor.min >= factor.max {
                 return Err(self.error(
@@ -1062,6 +1119,12 @@ impl Checker<'_> {
         for (name, value) in &file.fixed {
             let at = format!("fixed.{name}");
             let value = match value {
+                FixedValue::Number(value) if !value.is_finite() => {
+                    return Err(self.error(
+                        &at,
+                        format!("expected a finite number (SI units), got {value}"),
+                    ))
+                }
                 FixedValue::Number(value) => *value,
                 FixedValue::Text(text) if deck.is_some() => {
                     fixed_text.insert(name.clone(), text.clone());
@@ -1116,6 +1179,21 @@ impl Checker<'_> {
             .into_iter()
             .map(|coded| DesignPoint::in_box(coded, &limits))
             .collect();
+        for (index, point) in points.iter().enumerate() {
+            if let Some((factor, value)) = factors
+                .iter()
+                .zip(&point.natural)
+                .find(|(_, v)| !v.is_finite())
+            {
+                return Err(self.error(
+                    "design",
+                    format!(
+                        "design point {index} puts `{}` at {value}; every design value must be a finite number: narrow the factor's range",
+                        factor.name
+                    ),
+                ));
+            }
+        }
         let stages = self.stages(&file, simulation.as_ref())?;
         let known_responses = known_responses(simulation.as_ref(), &stages);
         for (i, response) in file.responses.iter().enumerate() {

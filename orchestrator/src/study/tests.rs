@@ -686,3 +686,73 @@ fn coupling_needs_the_cfd_stage_and_the_native_kernel_and_defaults_to_the_headli
         "{zero}"
     );
 }
+
+/// A custom deck whose factor `x` and fixed value take any number, so that only the
+/// finiteness checks can refuse them.
+const CUSTOM_ANY_RANGE: &str = "\
+name: bounded
+equipment: custom
+case:
+  templates: [deck.sh.tera]
+  command: [sh, deck.sh]
+  responses:
+    - {name: y, regex: 'y = (\\S+)'}
+factors:
+  - {name: x, min: -1, max: 1}
+fixed: {z: 2}
+design: {type: full_factorial, levels: 3}
+";
+
+#[test]
+fn a_range_too_wide_for_a_float_and_non_finite_values_are_refused_naming_the_field() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("deck.sh.tera"),
+        "echo y = {{ x }} {{ z }}\n",
+    )
+    .unwrap();
+    let load = |text: &str| {
+        let path = dir.path().join("bounded.yaml");
+        std::fs::write(&path, text).unwrap();
+        Study::load(&path).map(|_| ()).unwrap_err().to_string()
+    };
+    let wide = load(&CUSTOM_ANY_RANGE.replace("min: -1, max: 1", "min: -1e308, max: 1e308"));
+    assert!(
+        wide.contains("factors[0].max: the range [-1e308, 1e308] is wider than a number can hold"),
+        "{wide}"
+    );
+    let infinite = load(&CUSTOM_ANY_RANGE.replace("max: 1}", "max: .inf}"));
+    assert!(
+        infinite.contains("factors[0].max: expected a finite number, got inf"),
+        "{infinite}"
+    );
+    let negative = load(&CUSTOM_ANY_RANGE.replace("fixed: {z: 2}", "fixed: {z: -.inf}"));
+    assert!(
+        negative.contains("fixed.z: expected a finite number, got -inf"),
+        "{negative}"
+    );
+    let nan = load(&CUSTOM_ANY_RANGE.replace("fixed: {z: 2}", "fixed: {z: .nan}"));
+    assert!(
+        nan.contains("fixed.z: expected a finite number, got NaN"),
+        "{nan}"
+    );
+    let ok = CUSTOM_ANY_RANGE.to_string();
+    std::fs::write(dir.path().join("bounded.yaml"), &ok).unwrap();
+    assert!(Study::load(&dir.path().join("bounded.yaml")).is_ok());
+}
+
+#[test]
+fn a_study_name_longer_than_a_file_name_may_be_is_refused() {
+    let long = "a".repeat(MAX_STUDY_NAME + 1);
+    let message = error(&VALID.replace("name: hopper-vibration", &format!("name: {long}")));
+    assert!(
+        message.contains("name: expected at most 200 characters (it names folders and files, and file systems allow 255 bytes per name), got 201"),
+        "{message}"
+    );
+    let mut study = load(VALID).unwrap();
+    assert!(study
+        .rename(&long)
+        .unwrap_err()
+        .starts_with("--as: expected at most 200"));
+    assert!(study.rename(&"b".repeat(MAX_STUDY_NAME)).is_ok());
+}

@@ -116,7 +116,8 @@ fn a_terminal_shows_a_progress_bar_per_round_and_a_pipe_plain_lines() {
         "tiny2.yaml",
         &std::fs::read_to_string(&file)
             .unwrap()
-            .replace("name: tiny", "name: tiny-piped"),
+            // Another seed: the same decks would be reused, not run.
+            .replace("name: tiny", "name: tiny-piped\nseed: 2"),
     );
     let output = project.run(&["submit", other.to_str().unwrap()]);
     let stderr = text(&output.stderr);

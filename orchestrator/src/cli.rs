@@ -636,6 +636,42 @@ async fn submit(
         study.rename(name).map_err(input_error)?;
     }
     study.reuse &= !no_reuse;
+    let solver = study.simulation.solver_name();
+    let command = study.simulation.command();
+    let program = command.program;
+    if command.mpi && !program_exists(&program) {
+        return Err(input_error(format!(
+            "the study runs each {solver} job on {} MPI ranks (`executor.cores_per_job`) but `{program}` is not on PATH; install Open MPI (apt-get install -y openmpi-bin) or leave cores_per_job out, and submit again; nothing was written",
+            command.cores
+        )));
+    }
+    if !program_exists(&program) {
+        return Err(input_error(format!(
+            "the {solver} solver `{program}` is not installed (not found on PATH); install it with `{}` and submit again; nothing was written",
+            study.simulation.install_hint()
+        )));
+    }
+    // Behind a wrapper (`stdbuf -oL`, `mpirun -np 2`, `sh -c "…"`) is the solver itself.
+    let words: Vec<String> = std::iter::once(program.clone())
+        .chain(command.args.iter().cloned())
+        .collect();
+    let programs = crate::programs::programs_of(&words);
+    if let Some(missing) = programs.iter().skip(1).find(|p| !program_exists(p)) {
+        return Err(input_error(format!(
+            "the study's command runs `{missing}` (behind `{}`), which is not on PATH; install it, or give its full path in the command, and submit again; nothing was written",
+            programs[0]
+        )));
+    }
+    for stage in &study.stages {
+        let stage = stage.stage;
+        if let Some(missing) = stage.programs().iter().find(|p| !program_exists(p)) {
+            return Err(input_error(format!(
+                "the study has a `{}` stage but its program `{missing}` is not on PATH; install it with `{}` and submit again; nothing was written",
+                stage.kind(),
+                stage.install_hint()
+            )));
+        }
+    }
     if dry_run {
         outln!(
             "{}: {} design points × {} replicates = {} jobs: {} on {}",
@@ -665,31 +701,6 @@ async fn submit(
         }
         out!("{}", dry_run_summary(&study))?;
         return Ok(exit_codes::SUCCESS);
-    }
-    let solver = study.simulation.solver_name();
-    let command = study.simulation.command();
-    let program = command.program;
-    if command.mpi && !program_exists(&program) {
-        return Err(input_error(format!(
-            "the study runs each {solver} job on {} MPI ranks (`executor.cores_per_job`) but `{program}` is not on PATH; install Open MPI (apt-get install -y openmpi-bin) or leave cores_per_job out, and submit again; nothing was written",
-            command.cores
-        )));
-    }
-    if !program_exists(&program) {
-        return Err(input_error(format!(
-            "the {solver} solver `{program}` is not installed (not found on PATH); install it with `{}` and submit again; nothing was written",
-            study.simulation.install_hint()
-        )));
-    }
-    for stage in &study.stages {
-        let stage = stage.stage;
-        if let Some(missing) = stage.programs().iter().find(|p| !program_exists(p)) {
-            return Err(input_error(format!(
-                "the study has a `{}` stage but its program `{missing}` is not on PATH; install it with `{}` and submit again; nothing was written",
-                stage.kind(),
-                stage.install_hint()
-            )));
-        }
     }
     if study.executor.kind == ExecutorKind::Slurm {
         if let Some(missing) = ["sbatch", "squeue", "scancel"]

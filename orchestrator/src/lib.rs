@@ -20,6 +20,7 @@ pub mod keep;
 pub mod noise;
 pub mod output;
 pub mod plan;
+pub mod programs;
 pub mod progress;
 pub mod project;
 pub mod report;

@@ -1,7 +1,8 @@
 //! A user's own deck (`equipment: custom`): a hand-written LIGGGHTS deck that is not a
 //! hopper runs as a study on real LIGGGHTS; bad templates, unused factors and paths
 //! outside the study folder are refused before anything is written; a response whose
-//! file the run did not write fails the job naming the file; a changed template under
+//! file the run did not write is recorded naming the file, or fails the job under
+//! `missing_response: fail`; a changed template under
 //! the same name is refused with what to do, and what was stored is what resumes.
 //!
 //! The decks of the refusal and bookkeeping tests run a user's own shell script, as a
@@ -163,8 +164,26 @@ fn bad_templates_unused_factors_and_outside_paths_are_refused_before_anything_is
     );
     let unused = refused(SCRIPT_STUDY, "mkdir -p post\necho value = 1\n");
     assert!(
-        unused.contains("factors[0].name: factor `x` is not used by the templates: they render the same with x = 2 and x = 3; use it in a template (`{{ x }}`) or remove the factor"),
+        unused.contains("factors[0].name: factor `x` is not used by the templates: they render the same with x = 1, 2 and 3; use it in a template (`{{ x }}`) or remove the factor"),
         "{unused}"
+    );
+    // A switch that only the lowest level turns on is used.
+    let project = Project::new();
+    project.write(
+        "deck.sh.tera",
+        "{% if x < 2 %}echo low{% endif %}\necho \"{{ label }}: value = 1\"\n",
+    );
+    let file = project.write("script.yaml", SCRIPT_STUDY);
+    let output = project.run(&["submit", "--dry-run", file.to_str().unwrap()]);
+    assert_eq!(output.status.code(), Some(0), "{}", text(&output.stderr));
+    // A misspelt `fixed:` name is no silent default.
+    let misspelt = refused(
+        &SCRIPT_STUDY.replace("fixed: {label: run}", "fixed: {label: run, lable: walk}"),
+        SCRIPT,
+    );
+    assert!(
+        misspelt.contains("fixed.lable: `lable` is not used by the templates and the deck declares no such parameter; did you mean `label`?"),
+        "{misspelt}"
     );
     let environment = refused(SCRIPT_STUDY, "echo {{ x }} {{ get_env(name=\"HOME\") }}\n");
     assert!(
@@ -223,30 +242,49 @@ fn a_hopper_template_of_the_users_that_cannot_render_is_refused_at_validation() 
     assert!(!project.project_dir().exists());
 }
 
+/// Responses stand alone: one whose file the run did not write is recorded with the
+/// file it looked for and the others are kept (`missing_response: record`, the
+/// default), or the job fails naming the file (`missing_response: fail`).
 #[test]
-fn a_response_whose_file_the_run_did_not_write_fails_the_job_naming_the_file() {
+fn a_response_whose_file_the_run_did_not_write_is_recorded_or_fails_the_job_naming_the_file() {
     let project = Project::new();
     project.write(
         "deck.sh.tera",
-        "echo \"value = {{ x }}\"\n# writes no post/out.json\n",
+        "echo \"{{ label }}: value = {{ x }}\"\n# writes no post/out.json\n",
     );
+    let expected = "post/out.json is missing: response `doubled` is read from it; check that the deck writes post/out.json (relative to the run directory)";
     let file = project.write("script.yaml", SCRIPT_STUDY);
     let output = project.run(&["submit", file.to_str().unwrap()]);
-    assert_eq!(output.status.code(), Some(1), "{}", text(&output.stderr));
+    assert_eq!(output.status.code(), Some(0), "{}", text(&output.stderr));
     let status = project.status("script");
+    assert_eq!(count(&status, "succeeded"), 3, "{status:#}");
+    for job in status["jobs"].as_array().unwrap() {
+        let x = job["factors"]["x"].as_f64().unwrap();
+        assert_eq!(job["responses"]["printed"].as_f64(), Some(x), "{job:#}");
+        assert!(job["responses"].get("doubled").is_none(), "{job:#}");
+        let note = job["error"].as_str().unwrap();
+        assert!(
+            note.starts_with("succeeded without doubled: doubled: ") && note.contains(expected),
+            "{note}"
+        );
+    }
+
+    let failing = SCRIPT_STUDY.replace("name: script", "name: script-fails")
+        + "missing_response: fail\nseed: 2\n";
+    let file = project.write("script-fails.yaml", &failing);
+    let output = project.run(&["submit", file.to_str().unwrap()]);
+    assert_eq!(output.status.code(), Some(1), "{}", text(&output.stderr));
+    let status = project.status("script-fails");
     assert_eq!(count(&status, "failed"), 3, "{status:#}");
     let error = status["jobs"][0]["error"].as_str().unwrap();
-    assert!(
-        error.contains("post/out.json is missing: response `doubled` is read from it; check that the deck writes post/out.json (relative to the run directory)"),
-        "{error}"
-    );
+    assert!(error.contains(expected), "{error}");
 }
 
 /// [`SCRIPT`] with a version mark, failing for x > 2.5 (the third point).
 const VERSIONED: &str = "\
 # version 1
 mkdir -p post
-echo \"value = {{ x }}\"
+echo \"{{ label }}: value = {{ x }}\"
 echo '{\"result\": {\"doubled\": {{ x * 2 }}}}' > post/out.json
 awk 'BEGIN { exit ({{ x }} > 2.5) }'
 ";

@@ -9,10 +9,10 @@
 //! otherwise; a window `from`/`to` is in that column's units.
 
 use std::io::BufRead;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use crate::thin::{thinned_note, Thinned, MAX_SERIES_POINTS};
-use crate::{numbered_lines, open_in_run_dir, ParseError, Series};
+use crate::{in_run_dir, numbered_lines, open_in_run_dir, ParseError, Series};
 
 /// How a series of values becomes one response.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -31,11 +31,17 @@ pub enum Reduction {
     Integral,
     /// Sample standard deviation (n − 1).
     Std,
+    /// The first value.
+    First,
+    /// The sum of the values (a total over the cells or particles of a dump).
+    Sum,
+    /// How many values there are (particles, cells, matches).
+    Count,
 }
 
 impl Reduction {
     /// Every reduction with its name in study files.
-    pub const ALL: [(&'static str, Reduction); 7] = [
+    pub const ALL: [(&'static str, Reduction); 10] = [
         ("last", Reduction::Last),
         ("mean", Reduction::Mean),
         ("min", Reduction::Min),
@@ -43,6 +49,9 @@ impl Reduction {
         ("slope", Reduction::Slope),
         ("integral", Reduction::Integral),
         ("std", Reduction::Std),
+        ("first", Reduction::First),
+        ("sum", Reduction::Sum),
+        ("count", Reduction::Count),
     ];
 
     /// Its name in study files.
@@ -80,6 +89,7 @@ impl Reduction {
 #[derive(Debug, Clone, Copy, Default)]
 pub struct Running {
     n: usize,
+    first: Option<f64>,
     last: Option<(f64, f64)>,
     sum: f64,
     min: Option<f64>,
@@ -108,6 +118,7 @@ impl Running {
         self.m2_v += dv * (v - self.mean_v);
         self.co_tv += dt * (v - self.mean_v);
         self.sum += v;
+        self.first.get_or_insert(v);
         self.min = Some(self.min.map_or(v, |m| m.min(v)));
         self.max = Some(self.max.map_or(v, |m| m.max(v)));
         self.last = Some((t, v));
@@ -129,6 +140,9 @@ impl Running {
             Reduction::Slope => (n >= 2 && self.m2_t > 0.0).then(|| self.co_tv / self.m2_t),
             Reduction::Integral => (n >= 2).then_some(self.integral),
             Reduction::Std => (n >= 2).then(|| (self.m2_v / (n - 1) as f64).sqrt()),
+            Reduction::First => self.first,
+            Reduction::Sum => (n > 0).then_some(self.sum),
+            Reduction::Count => Some(n as f64),
         }
     }
 }
@@ -222,47 +236,208 @@ pub struct DeclaredResponse {
     pub from: Option<f64>,
     /// Window end (inclusive); `None` to the last row.
     pub to: Option<f64>,
+    /// Which of the files a glob (`post/dump_*.txt`) matches are read.
+    pub pick: Pick,
+}
+
+/// Which files of a glob a response reads.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Pick {
+    /// The last in natural order (`dump_900` before `dump_1000`): the latest step of
+    /// numbered dumps (the default).
+    #[default]
+    Last,
+    /// The one modified last.
+    Newest,
+    /// All of them, in natural order, as one series (an index-numbered source counts
+    /// on across files).
+    All,
+}
+
+impl Pick {
+    /// Every pick with its name in study files.
+    pub const ALL: [(&'static str, Pick); 3] = [
+        ("last", Pick::Last),
+        ("newest", Pick::Newest),
+        ("all", Pick::All),
+    ];
+
+    /// The pick called `name`.
+    pub fn from_name(name: &str) -> Option<Pick> {
+        Pick::ALL.iter().find(|(n, _)| *n == name).map(|(_, p)| *p)
+    }
+}
+
+/// True when `file` is a glob: it holds `*`, `?` or `[`.
+pub fn is_glob(file: &str) -> bool {
+    file.contains(['*', '?', '['])
+}
+
+/// Why `pattern` is not a glob orch can match (each `/`-separated part is matched
+/// against names: `*`, `?`, `[…]`), or `None`.
+pub fn glob_error(pattern: &str) -> Option<String> {
+    pattern.split('/').find_map(|part| {
+        glob::Pattern::new(part)
+            .err()
+            .map(|e| format!("`{part}` is not a glob: {e}"))
+    })
+}
+
+/// `a` before `b` in natural order: runs of digits compare as numbers, so `dump_900`
+/// comes before `dump_1000`.
+fn natural_order(a: &str, b: &str) -> std::cmp::Ordering {
+    let (mut a, mut b) = (a.as_bytes(), b.as_bytes());
+    loop {
+        match (a.first(), b.first()) {
+            (None, None) => return std::cmp::Ordering::Equal,
+            (None, _) => return std::cmp::Ordering::Less,
+            (_, None) => return std::cmp::Ordering::Greater,
+            (Some(x), Some(y)) if x.is_ascii_digit() && y.is_ascii_digit() => {
+                let digits = |s: &[u8]| s.iter().take_while(|c| c.is_ascii_digit()).count();
+                let (na, nb) = (digits(a), digits(b));
+                let trim = |s: &[u8]| -> Vec<u8> {
+                    let t: Vec<u8> = s.iter().copied().skip_while(|&c| c == b'0').collect();
+                    t
+                };
+                let (da, db) = (trim(&a[..na]), trim(&b[..nb]));
+                let order = da.len().cmp(&db.len()).then_with(|| da.cmp(&db));
+                if order != std::cmp::Ordering::Equal {
+                    return order;
+                }
+                a = &a[na..];
+                b = &b[nb..];
+            }
+            (Some(x), Some(y)) if x != y => return x.cmp(y),
+            _ => {
+                a = &a[1..];
+                b = &b[1..];
+            }
+        }
+    }
+}
+
+/// The files of `run_dir` a glob `pattern` (relative, `*` `?` `[…]` within a name)
+/// matches, relative to `run_dir`, in natural order.
+fn glob_files(run_dir: &Path, pattern: &str) -> std::io::Result<Vec<String>> {
+    let parts: Vec<&str> = pattern
+        .split('/')
+        .filter(|p| !p.is_empty() && *p != ".")
+        .collect();
+    let mut found = vec![String::new()];
+    for (depth, part) in parts.iter().enumerate() {
+        let last = depth + 1 == parts.len();
+        let mut next = Vec::new();
+        for prefix in &found {
+            let dir = run_dir.join(prefix);
+            let join = |name: &str| {
+                if prefix.is_empty() {
+                    name.to_string()
+                } else {
+                    format!("{prefix}/{name}")
+                }
+            };
+            if !is_glob(part) {
+                let path = dir.join(part);
+                if (last && path.is_file()) || (!last && path.is_dir()) {
+                    next.push(join(part));
+                }
+                continue;
+            }
+            let matcher = glob::Pattern::new(part)
+                .map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidInput, e))?;
+            let Ok(entries) = std::fs::read_dir(&dir) else {
+                continue;
+            };
+            for entry in entries {
+                let entry = entry?;
+                let name = entry.file_name().to_string_lossy().into_owned();
+                let kind = entry.file_type()?;
+                let fits = if last { kind.is_file() } else { kind.is_dir() };
+                if fits && matcher.matches(&name) {
+                    next.push(join(&name));
+                }
+            }
+        }
+        found = next;
+    }
+    found.sort_by(|a, b| natural_order(a, b));
+    Ok(found)
 }
 
 impl DeclaredResponse {
+    /// The files the response reads, relative to `run_dir`: its file, or those of its
+    /// glob that [`Pick`] chooses.
+    fn files(&self, run_dir: &Path) -> Result<Vec<String>, ParseError> {
+        let file = self.source.file();
+        if !is_glob(file) {
+            return Ok(vec![file.to_string()]);
+        }
+        let pattern_path = in_run_dir(run_dir, file);
+        let mut matches = glob_files(run_dir, file).map_err(ParseError::read(&pattern_path))?;
+        if matches.is_empty() {
+            return Err(ParseError::Missing {
+                path: pattern_path,
+                what: format!(
+                    "no file matches it; response `{}` is read from the files of {file} (relative to the run directory)",
+                    self.name
+                ),
+            });
+        }
+        Ok(match self.pick {
+            Pick::All => matches,
+            Pick::Last => vec![matches.pop().expect("not empty")],
+            Pick::Newest => {
+                let modified = |f: &String| {
+                    std::fs::metadata(run_dir.join(f))
+                        .and_then(|m| m.modified())
+                        .ok()
+                };
+                let newest = matches
+                    .iter()
+                    .max_by(|a, b| modified(a).cmp(&modified(b)).then(natural_order(a, b)))
+                    .expect("not empty");
+                vec![newest.clone()]
+            }
+        })
+    }
+
     /// Reads the response from a finished run in one streaming pass: its value over the
     /// window from every point, and its series bounded to [`MAX_SERIES_POINTS`].
     pub fn read(&self, run_dir: &Path) -> Result<Read, ParseError> {
-        let (reader, path) =
-            open_in_run_dir(run_dir, self.source.file()).map_err(|error| match error {
-                ParseError::Read { path, source }
-                    if source.kind() == std::io::ErrorKind::NotFound =>
-                {
-                    ParseError::Missing {
-                        path,
-                        what: format!(
-                            "response `{}` is read from it; check that the deck writes {} (relative to the run directory)",
-                            self.name,
-                            self.source.file()
-                        ),
-                    }
-                }
-                other => other,
-            })?;
+        let files = self.files(run_dir)?;
         let mut window = Running::default();
         let mut series = Thinned::new(MAX_SERIES_POINTS);
-        let mut sink = |point: (f64, f64)| {
-            let (t, _) = point;
-            if self.from.is_none_or(|from| t >= from) && self.to.is_none_or(|to| t <= to) {
-                window.push(point);
+        // An index-numbered source (regex matches, JSON arrays) counts on across the
+        // files of a glob; a table keeps its time column.
+        let mut offset = 0.0;
+        let mut path = PathBuf::new();
+        for file in &files {
+            let (reader, opened) = self.open(run_dir, file)?;
+            path = opened;
+            let mut count = 0.0_f64;
+            let mut sink = |(t, v): (f64, f64)| {
+                let t = match self.source {
+                    Source::Table { .. } => t,
+                    _ => t + offset,
+                };
+                count += 1.0;
+                if self.from.is_none_or(|from| t >= from) && self.to.is_none_or(|to| t <= to) {
+                    window.push((t, v));
+                }
+                series.push((t, v));
+            };
+            match &self.source {
+                Source::Table {
+                    column,
+                    time_column,
+                    ..
+                } => for_each_table_row(reader, &path, column, time_column, &mut sink)?,
+                Source::Regex { pattern, .. } => {
+                    for_each_regex_match(reader, &path, pattern, &mut sink)?
+                }
+                Source::Json { key, .. } => for_each_json_value(reader, &path, key, &mut sink)?,
             }
-            series.push(point);
-        };
-        match &self.source {
-            Source::Table {
-                column,
-                time_column,
-                ..
-            } => for_each_table_row(reader, &path, column, time_column, &mut sink)?,
-            Source::Regex { pattern, .. } => {
-                for_each_regex_match(reader, &path, pattern, &mut sink)?
-            }
-            Source::Json { key, .. } => for_each_json_value(reader, &path, key, &mut sink)?,
+            offset += count;
         }
         let value = window
             .value(self.reduce)
@@ -287,6 +462,28 @@ impl DeclaredResponse {
                 points,
             },
             note,
+        })
+    }
+}
+
+impl DeclaredResponse {
+    /// Opens `file` of `run_dir`; a missing one says which response wanted it.
+    fn open(
+        &self,
+        run_dir: &Path,
+        file: &str,
+    ) -> Result<(std::io::BufReader<std::fs::File>, PathBuf), ParseError> {
+        open_in_run_dir(run_dir, file).map_err(|error| match error {
+            ParseError::Read { path, source } if source.kind() == std::io::ErrorKind::NotFound => {
+                ParseError::Missing {
+                    path,
+                    what: format!(
+                        "response `{}` is read from it; check that the deck writes {file} (relative to the run directory)",
+                        self.name
+                    ),
+                }
+            }
+            other => other,
         })
     }
 }
@@ -732,6 +929,15 @@ mod tests {
         assert!((r(Reduction::Integral) - 20.0).abs() < 1e-12);
         // values 1, 3, 5, 9: mean 4.5, squares 12.25 + 2.25 + 0.25 + 20.25 = 35 over 3.
         assert!((r(Reduction::Std) - (35.0f64 / 3.0).sqrt()).abs() < 1e-12);
+        assert_eq!(r(Reduction::First), 1.0);
+        assert_eq!(r(Reduction::Sum), 18.0);
+        assert_eq!(r(Reduction::Count), 4.0);
+        assert_eq!(
+            Reduction::Count.apply(&[]),
+            Some(0.0),
+            "no values is a count"
+        );
+        assert_eq!(Reduction::Sum.apply(&[]), None);
         assert_eq!(Reduction::Slope.apply(&points[..1]), None);
         assert_eq!(Reduction::Mean.apply(&[]), None);
     }
@@ -815,6 +1021,7 @@ mod tests {
             reduce: Reduction::Mean,
             from: None,
             to: None,
+            pick: Pick::Last,
         };
         let read = response.read(dir.path()).unwrap();
         assert_eq!(
@@ -859,6 +1066,82 @@ mod tests {
     }
 
     #[test]
+    fn natural_order_puts_step_900_before_step_1000() {
+        let mut names = vec![
+            "dump_1000.txt",
+            "dump_900.txt",
+            "dump_0100.txt",
+            "dump_a.txt",
+        ];
+        names.sort_by(|a, b| natural_order(a, b));
+        assert_eq!(
+            names,
+            [
+                "dump_0100.txt",
+                "dump_900.txt",
+                "dump_1000.txt",
+                "dump_a.txt"
+            ]
+        );
+    }
+
+    #[test]
+    fn a_glob_reads_the_last_the_newest_or_all_of_its_files() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::create_dir_all(dir.path().join("post/a")).unwrap();
+        for (step, total) in [(900, 1.0), (1000, 2.0), (200, 3.0)] {
+            std::fs::write(
+                dir.path().join(format!("post/wear_{step}.txt")),
+                format!("total = {total}\ntotal = {}\n", total * 10.0),
+            )
+            .unwrap();
+            std::thread::sleep(std::time::Duration::from_millis(20));
+        }
+        std::fs::write(dir.path().join("post/a/ignored.txt"), "total = 99\n").unwrap();
+        let response = |pick: Pick, reduce: Reduction| DeclaredResponse {
+            name: "wear".into(),
+            unit: "J".into(),
+            source: Source::regex("post/wear_*.txt".into(), r"total = (\S+)").unwrap(),
+            reduce,
+            from: None,
+            to: None,
+            pick,
+        };
+        let read = |pick, reduce| response(pick, reduce).read(dir.path()).unwrap();
+        // The last in natural order is step 1000; the newest written is step 200.
+        assert_eq!(read(Pick::Last, Reduction::Sum).value, 22.0);
+        assert_eq!(read(Pick::Newest, Reduction::Sum).value, 33.0);
+        let all = read(Pick::All, Reduction::Count);
+        assert_eq!(all.value, 6.0);
+        // The match numbers count on across the files, in natural order.
+        assert_eq!(
+            all.series.points,
+            [
+                (1.0, 3.0),
+                (2.0, 30.0),
+                (3.0, 1.0),
+                (4.0, 10.0),
+                (5.0, 2.0),
+                (6.0, 20.0)
+            ]
+        );
+        let none = DeclaredResponse {
+            source: Source::regex("post/none_*.txt".into(), r"total = (\S+)").unwrap(),
+            ..response(Pick::Last, Reduction::Sum)
+        };
+        let error = none.read(dir.path()).unwrap_err().to_string();
+        assert!(
+            error.contains("post/none_*.txt is missing: no file matches it"),
+            "{error}"
+        );
+        assert_eq!(
+            glob_error("post/[a.txt").map(|e| e.starts_with("`[a.txt` is not a glob")),
+            Some(true)
+        );
+        assert_eq!(glob_error("post/*.txt"), None);
+    }
+
+    #[test]
     fn a_declared_response_reduces_its_window_and_keeps_its_series() {
         let dir = tempfile::tempdir().unwrap();
         std::fs::create_dir_all(dir.path().join("post")).unwrap();
@@ -874,6 +1157,7 @@ mod tests {
             reduce: Reduction::Mean,
             from: Some(2000.0),
             to: None,
+            pick: Pick::Last,
         };
         let read = response.read(dir.path()).unwrap();
         assert_eq!(read.value, 2.0);

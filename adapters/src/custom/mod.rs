@@ -13,7 +13,7 @@ mod declared;
 use std::collections::BTreeMap;
 use std::path::Path;
 
-pub use declared::{Column, DeclaredResponse, Reduction, Source};
+pub use declared::{glob_error, is_glob, Column, DeclaredResponse, Pick, Reduction, Source};
 
 use crate::simulation::{context_of, locked_tera, write, write_bytes};
 use crate::{
@@ -211,11 +211,20 @@ impl Simulation for CustomDeck {
 
     fn results(&self, _case: &Case, run_dir: &Path) -> Result<RunResults, ParseError> {
         let mut results = RunResults::default();
+        // Each response stands alone: one that cannot be read is recorded with why
+        // (the study's `missing_response:` says whether the job then fails), and the
+        // others are kept.
         for response in &self.responses {
-            let read = response.read(run_dir)?;
-            results.responses.push((response.name.clone(), read.value));
-            results.series.push(read.series);
-            results.notes.extend(read.note);
+            match response.read(run_dir) {
+                Ok(read) => {
+                    results.responses.push((response.name.clone(), read.value));
+                    results.series.push(read.series);
+                    results.notes.extend(read.note);
+                }
+                Err(why) => results
+                    .missing
+                    .push((response.name.clone(), why.to_string())),
+            }
         }
         Ok(results)
     }

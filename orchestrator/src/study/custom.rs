@@ -8,8 +8,8 @@
 use std::path::{Component, Path};
 
 use orch_adapters::custom::{
-    render_command, CaseTemplate, Column, CustomDeck, DeckCommand, DeclaredResponse, Reduction,
-    SideFile, Source,
+    render_command, CaseTemplate, Column, CustomDeck, DeckCommand, DeclaredResponse, Pick,
+    Reduction, SideFile, Source,
 };
 use orch_adapters::ParameterSpec;
 
@@ -360,13 +360,43 @@ impl Checker<'_> {
             ),
             ("file", declared.file.is_some() && declared.regex.is_none()),
             ("key", declared.key.is_some() && declared.json.is_none()),
+            (
+                "pick",
+                declared.pick.is_some() && !orch_adapters::custom::is_glob(source.file()),
+            ),
         ];
         if let Some((name, _)) = misplaced.iter().find(|(_, wrong)| *wrong) {
-            return Err(self.error(
-                &field(name),
-                format!("`{name}` does not apply to this source"),
-            ));
+            let why = if *name == "pick" {
+                "`pick` chooses among the files of a glob (`post/dump_*.txt`); this source names one file".to_string()
+            } else {
+                format!("`{name}` does not apply to this source")
+            };
+            return Err(self.error(&field(name), why));
         }
+        if let Some(pattern) = orch_adapters::custom::is_glob(source.file()).then(|| source.file())
+        {
+            if let Some(why) = orch_adapters::custom::glob_error(pattern) {
+                let which = match source {
+                    Source::Table { .. } => "table",
+                    Source::Regex { .. } => "file",
+                    Source::Json { .. } => "json",
+                };
+                return Err(self.error(&field(which), why));
+            }
+        }
+        let pick = match &declared.pick {
+            None => Pick::default(),
+            Some(name) => Pick::from_name(name).ok_or_else(|| {
+                let names: Vec<&str> = Pick::ALL.iter().map(|(n, _)| *n).collect();
+                self.error(
+                    &field("pick"),
+                    format!(
+                        "unknown pick `{name}`; expected one of: {}",
+                        names.join(", ")
+                    ),
+                )
+            })?,
+        };
         let reduce = match &declared.reduce {
             None => Reduction::Last,
             Some(name) => Reduction::from_name(name).ok_or_else(|| {
@@ -395,6 +425,7 @@ impl Checker<'_> {
             reduce,
             from: declared.from,
             to: declared.to,
+            pick,
         })
     }
 
@@ -455,36 +486,125 @@ impl Checker<'_> {
         })
     }
 
-    /// Each factor must change what the templates render: the centre point against the
-    /// same point with that factor at its maximum.
+    /// Each factor must change what the templates render: at its minimum, centre and
+    /// maximum, with the others at their centre, not every rendering may be the same
+    /// (a switch `{% if x > 0 %}` over [0, 1] changes only between 0 and 0.5). A
+    /// `fixed:` value the deck does not declare must change them too, or it is a
+    /// misspelling, refused with the nearest name the study knows.
     pub(super) fn every_factor_is_used(&self, study: &Study) -> Result<(), StudyError> {
         let centre: Vec<f64> = study
             .factors
             .iter()
             .map(|f| f.range.to_natural(0.0))
             .collect();
-        let render = |natural: &[f64]| study.simulation.render_texts(&study.case_at(natural, 0));
-        let Ok(base) = render(&centre) else {
+        let render = |case: &orch_adapters::Case| study.simulation.render_texts(case);
+        let Ok(base) = render(&study.case_at(&centre, 0)) else {
             return Ok(()); // every design point rendered; the centre's error shows there
         };
         for (i, factor) in study.factors.iter().enumerate() {
-            let mut moved = centre.clone();
-            moved[i] = factor.range.max;
-            if render(&moved).is_ok_and(|texts| texts == base) {
+            let levels = [factor.range.min, factor.range.max];
+            let used = levels.iter().any(|&level| {
+                let mut moved = centre.clone();
+                moved[i] = level;
+                render(&study.case_at(&moved, 0)).is_ok_and(|texts| texts != base)
+            });
+            if !used {
                 return Err(self.error(
                     &format!("factors[{i}].name"),
                     format!(
-                        "factor `{}` is not used by the templates: they render the same with {} = {} and {} = {}; use it in a template (`{{{{ {} }}}}`) or remove the factor",
+                        "factor `{}` is not used by the templates: they render the same with {} = {}, {} and {}; use it in a template (`{{{{ {} }}}}`) or remove the factor",
                         factor.name,
                         factor.name,
+                        factor.range.min,
                         centre[i],
-                        factor.name,
                         factor.range.max,
                         factor.name
                     ),
                 ));
             }
         }
+        let declared: Vec<&str> = study
+            .simulation
+            .parameters()
+            .iter()
+            .map(|p| p.name.as_ref())
+            .collect();
+        let numbers = study.fixed.keys();
+        let texts = study.fixed_text.keys();
+        for name in numbers.chain(texts) {
+            if declared.contains(&name.as_str()) {
+                continue;
+            }
+            let mut case = study.case_at(&centre, 0);
+            if let Some(value) = case.parameters.0.get_mut(name) {
+                *value = 2.0 * *value + 1.0;
+            }
+            if let Some(text) = case.text.get_mut(name) {
+                text.push_str("-orch-probe");
+            }
+            if render(&case).is_ok_and(|texts| texts == base) {
+                let others = study.fixed.keys().chain(study.fixed_text.keys());
+                let known: Vec<&str> = declared
+                    .iter()
+                    .copied()
+                    .chain(study.factors.iter().map(|f| f.name.as_str()))
+                    .chain(others.map(String::as_str).filter(|other| *other != name))
+                    .collect();
+                let hint = match nearest(name, &known) {
+                    Some(near) => format!("did you mean `{near}`?"),
+                    None => format!("use it in a template (`{{{{ {name} }}}}`) or remove it"),
+                };
+                return Err(self.error(
+                    &format!("fixed.{name}"),
+                    format!("`{name}` is not used by the templates and the deck declares no such parameter; {hint}"),
+                ));
+            }
+        }
         Ok(())
+    }
+}
+
+/// The name of `known` closest to `name` by edit distance, if a misspelling could
+/// explain it (at most a third of its letters, and 3, differ).
+fn nearest<'a>(name: &str, known: &[&'a str]) -> Option<&'a str> {
+    let limit = (name.chars().count() / 3).clamp(1, 3);
+    known
+        .iter()
+        .map(|k| (levenshtein(name, k), *k))
+        .filter(|(d, _)| *d <= limit)
+        .min()
+        .map(|(_, k)| k)
+}
+
+/// Levenshtein's edit distance: insertions, deletions and substitutions of characters.
+fn levenshtein(a: &str, b: &str) -> usize {
+    let b: Vec<char> = b.chars().collect();
+    let mut row: Vec<usize> = (0..=b.len()).collect();
+    for (i, ca) in a.chars().enumerate() {
+        let mut diagonal = row[0];
+        row[0] = i + 1;
+        for (j, cb) in b.iter().enumerate() {
+            let above = row[j + 1];
+            row[j + 1] = (above + 1)
+                .min(row[j] + 1)
+                .min(diagonal + usize::from(ca != *cb));
+            diagonal = above;
+        }
+    }
+    row[b.len()]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_misspelling_finds_its_name_and_a_stranger_finds_none() {
+        assert_eq!(levenshtein("kitten", "sitting"), 3);
+        assert_eq!(levenshtein("", "ab"), 2);
+        let known = ["contact_model", "youngs_modulus", "density"];
+        assert_eq!(nearest("contct_model", &known), Some("contact_model"));
+        assert_eq!(nearest("densty", &known), Some("density"));
+        assert_eq!(nearest("gravity", &known), None);
     }
 }

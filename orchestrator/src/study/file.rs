@@ -239,7 +239,7 @@ pub struct DeclaredResponseFile {
     /// The dotted key path in a `json:` file.
     #[serde(default)]
     pub key: Option<String>,
-    /// last (default), mean, min, max, slope, integral or std.
+    /// last (default), first, mean, min, max, sum, count, slope, integral or std.
     #[serde(default)]
     pub reduce: Option<String>,
     /// Window start, in the time column's units.
@@ -248,6 +248,9 @@ pub struct DeclaredResponseFile {
     /// Window end.
     #[serde(default)]
     pub to: Option<f64>,
+    /// Which files of a glob are read: last (default, natural order), newest or all.
+    #[serde(default)]
+    pub pick: Option<String>,
 }
 
 /// A stage's section: its parameters held constant.

@@ -135,6 +135,7 @@ async fn drive_with<E: Executor>(
         convergence: ConvergenceWatch::default(),
         stop: stop_on_signals()?,
         uncollected: HashSet::new(),
+        reused_in_tick: false,
     };
     driver.reconcile().await?;
     let mut ticker = tokio::time::interval(TICK);
@@ -179,6 +180,10 @@ async fn drive_with<E: Executor>(
         driver
             .apply(&jobs.iter().collect::<Vec<_>>(), actions)
             .await?;
+        // A reused job took no slot: the next jobs need not wait for the next tick.
+        if std::mem::take(&mut driver.reused_in_tick) {
+            ticker.reset_immediately();
+        }
         let finished = decide::is_finished(&jobs);
         // The bar's last state is the round's end, however soon it came.
         driver.show_progress(finished).await?;
@@ -236,6 +241,8 @@ struct Driver<'a, E> {
     /// Jobs that exited 0 but whose output was not read because orch was asked to
     /// stop: left running in the store for `orch resume` to read, not run again.
     uncollected: HashSet<i64>,
+    /// True when this tick recorded a job as reused instead of launching it.
+    reused_in_tick: bool,
 }
 
 /// A flag that turns true on the first Ctrl-C (SIGINT) or SIGTERM, set by a task of its
@@ -620,6 +627,7 @@ impl<E: Executor> Driver<'_, E> {
             return Ok(false);
         }
         self.store.mark_reused(job.id, identity, &source).await?;
+        self.reused_in_tick = true;
         let responses: Vec<(String, f64)> = self
             .store
             .job_responses(job.id)

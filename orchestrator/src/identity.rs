@@ -49,7 +49,8 @@ pub fn of_run(run_dir: &Path, command: &CommandSpec, conditions: &str) -> std::i
             );
         } else {
             field(&mut hash, b"file");
-            field(&mut hash, &std::fs::read(&path)?);
+            hash.update(meta.len().to_le_bytes());
+            hash_file(&mut hash, &path)?;
         }
     }
     field(&mut hash, b"program");
@@ -68,6 +69,21 @@ pub fn of_run(run_dir: &Path, command: &CommandSpec, conditions: &str) -> std::i
     field(&mut hash, b"conditions");
     field(&mut hash, conditions.as_bytes());
     Ok(hex(&hash.finalize()))
+}
+
+/// Adds the content of the file at `path` to `hash`, 64 KiB at a time: a mesh or a
+/// program may be large, and what orch holds must not grow with it.
+fn hash_file(hash: &mut Sha256, path: &Path) -> std::io::Result<()> {
+    use std::io::Read;
+    let mut file = std::fs::File::open(path)?;
+    let mut buffer = vec![0_u8; 64 * 1024];
+    loop {
+        let n = file.read(&mut buffer)?;
+        if n == 0 {
+            return Ok(());
+        }
+        hash.update(&buffer[..n]);
+    }
 }
 
 /// Adds `bytes` to `hash` after their length.
@@ -150,8 +166,9 @@ pub fn program_fingerprint(program: &str) -> String {
     if let Some(known) = SEEN.lock().expect("not poisoned").get(&key) {
         return known.clone();
     }
-    let content = match std::fs::read(&path) {
-        Ok(bytes) => hex(&Sha256::digest(&bytes)),
+    let mut digest = Sha256::new();
+    let content = match hash_file(&mut digest, &path) {
+        Ok(()) => hex(&digest.finalize()),
         Err(e) => format!("unreadable ({e})"),
     };
     let package = debian_package(&path).unwrap_or_default();

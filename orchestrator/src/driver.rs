@@ -1168,16 +1168,17 @@ pub fn failure_summary(run_dir: &Path, log_file: &str) -> String {
     };
     let log = read(log_file);
     let stdout = read(STDOUT_FILE);
-    let errors: Vec<&str> = log
-        .lines()
-        .chain(stdout.lines())
-        .filter(|l| l.trim_start().starts_with("ERROR") || l.contains("FATAL"))
-        .collect();
-    if let Some(first) = errors.first() {
-        return format!("it reported: {}", first.trim());
+    let stderr = read(STDERR_FILE);
+    // The solver's own words first: its log, then what it printed; Open MPI's abort
+    // text on stderr comes after the solver's `ERROR:` line in importance.
+    for windows in [&log, &stdout, &stderr] {
+        let lines: Vec<&str> = windows.lines().collect();
+        if let Some(error) = crate::tail::last_error(&lines) {
+            return format!("it reported: {error}");
+        }
     }
     for (name, windows) in [
-        (STDERR_FILE, read(STDERR_FILE)),
+        (STDERR_FILE, stderr),
         (log_file, log),
         (STDOUT_FILE, stdout),
     ] {

@@ -76,6 +76,41 @@ fn read_at(file: &mut File, offset: u64, max: u64) -> io::Result<Vec<u8>> {
     Ok(bytes)
 }
 
+/// The last error a solver reported in `lines`, as one line: LIGGGHTS's and LAMMPS's
+/// `ERROR: …` (or `ERROR on proc N: …`), OpenFOAM's `--> FOAM FATAL ERROR` with the
+/// line that says what (OpenFOAM puts the message on the next line), or the last line
+/// of a Python traceback (YADE: `ZeroDivisionError: division by zero`).
+pub fn last_error(lines: &[&str]) -> Option<String> {
+    let mut found = None;
+    let mut k = 0;
+    while k < lines.len() {
+        let line = lines[k].trim();
+        if line.starts_with("ERROR") {
+            found = Some(line.to_string());
+        } else if line.contains("FOAM FATAL") {
+            let what = lines[k + 1..]
+                .iter()
+                .map(|l| l.trim())
+                .find(|l| !l.is_empty() && !l.starts_with("From ") && !l.starts_with("in file"));
+            found = Some(match what {
+                Some(what) => format!("{line} {what}"),
+                None => line.to_string(),
+            });
+        } else if line.starts_with("Traceback (most recent call last)") {
+            // The frames are indented; the exception is the first line that is not.
+            let end = lines[k + 1..]
+                .iter()
+                .position(|l| !l.starts_with(' ') && !l.trim().is_empty());
+            if let Some(end) = end {
+                k += 1 + end;
+                found = Some(lines[k].trim().to_string());
+            }
+        }
+        k += 1;
+    }
+    found
+}
+
 #[cfg(test)]
 mod tests {
     use std::io::Write;
@@ -86,6 +121,51 @@ mod tests {
         let mut file = tempfile::NamedTempFile::new().unwrap();
         file.write_all(bytes).unwrap();
         file
+    }
+
+    #[test]
+    fn the_last_error_of_liggghts_openfoam_and_python_is_one_line() {
+        let liggghts = [
+            "Setting up run ...",
+            "ERROR: Unknown command: frobnicate 3 (../input.cpp:250)",
+            "ERROR on proc 0: Lost atoms: original 400 current 398 (../thermo.cpp:394)",
+            "--------------------------------------------------------------------------",
+            "MPI_ABORT was invoked on rank 0 in communicator MPI_COMM_WORLD",
+        ];
+        assert_eq!(
+            last_error(&liggghts).unwrap(),
+            "ERROR on proc 0: Lost atoms: original 400 current 398 (../thermo.cpp:394)"
+        );
+        let openfoam = [
+            "Create mesh for time = 0",
+            "",
+            "--> FOAM FATAL ERROR: (openfoam-2306)",
+            "",
+            "    cannot find file \"/run/0/U\"",
+            "",
+            "    From virtual Foam::autoPtr<Foam::ISstream> Foam::fileOperations::uncollatedFileOperation::readStream(...) const",
+            "    in file global/fileOperations/uncollatedFileOperation/uncollatedFileOperation.C at line 542.",
+            "FOAM exiting",
+        ];
+        assert_eq!(
+            last_error(&openfoam).unwrap(),
+            "--> FOAM FATAL ERROR: (openfoam-2306) cannot find file \"/run/0/U\""
+        );
+        let yade = [
+            "Running script hopper.py",
+            "Traceback (most recent call last):",
+            "  File \"/usr/bin/yade\", line 336, in runScript",
+            "    execfile(script, globals())",
+            "  File \"hopper.py\", line 12, in <module>",
+            "    rate = 1 / 0",
+            "ZeroDivisionError: division by zero",
+            "[[ ^L clears the screen, type 'help' ]]",
+        ];
+        assert_eq!(
+            last_error(&yade).unwrap(),
+            "ZeroDivisionError: division by zero"
+        );
+        assert_eq!(last_error(&["step 1", "step 2"]), None);
     }
 
     #[test]

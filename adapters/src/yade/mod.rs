@@ -51,15 +51,20 @@ pub const CROSSINGS_FILE: &str = "post/crossings.csv";
 /// `yade -j N -n -x SCRIPT`: no GUI, exit when the script ends, N OpenMP threads.
 /// One thread (the default) is reproducible; `-j 2` and more are not (the order of
 /// YADE's parallel force sums changes from run to run), so a study that asks for more
-/// cores trades bit-for-bit replays for speed.
+/// cores trades bit-for-bit replays for speed. Python writes its output unbuffered
+/// (`PYTHONUNBUFFERED=1`), so a traceback is not lost when YADE dies.
 fn command(script_file: &str, cores: usize) -> CommandSpec {
     let threads = cores.to_string();
-    solver_command(
+    let mut command = solver_command(
         "yade".to_string(),
         &["-j", &threads, "-n", "-x", script_file],
         cores,
         LOG_FILE,
-    )
+    );
+    command
+        .env
+        .insert("PYTHONUNBUFFERED".to_string(), "1".to_string());
+    command
 }
 
 /// The script's summary line (loop time, work) and its crossings.

@@ -177,5 +177,10 @@ fn command_on_two_cores_asks_yade_for_two_threads() {
     assert_eq!(command.program, "yade");
     assert_eq!(command.args, ["-j", "2", "-n", "-x", "hopper.py"]);
     assert_eq!(command.cores, 2);
-    assert!(command.env.is_empty());
+    assert_eq!(
+        command.env.get("PYTHONUNBUFFERED").map(String::as_str),
+        Some("1"),
+        "a traceback is written as it happens"
+    );
+    assert_eq!(command.env.len(), 1);
 }

@@ -18,7 +18,8 @@ use tokio::process::{Child, Command};
 use super::process::{self, ProcessHandle};
 use super::{
     read_exit_status, Executor, JobStatus, LaunchError, LaunchSpec, Launched, PollError, Recovered,
-    Report, Unrecorded, Watched, ATTEMPTS_LOG, EXIT_STATUS_FILE, STDERR_FILE, STDOUT_FILE,
+    Report, Unrecorded, Watched, ATTEMPTS_LOG, EXIT_STATUS_FILE, LINE_BUFFERED, STDERR_FILE,
+    STDOUT_FILE,
 };
 
 /// How long a terminated job has between SIGTERM and SIGKILL.
@@ -29,8 +30,8 @@ pub const POLL_INTERVAL: Duration = Duration::from_millis(100);
 /// The shell wrapper around every local job; `$@` is the solver's command line.
 fn wrapper_script() -> String {
     format!(
-        "echo \"start $$ $(date +%s.%N)\" >> {ATTEMPTS_LOG}; \
-         \"$@\" > {STDOUT_FILE} 2> {STDERR_FILE} < /dev/null; rc=$?; \
+        "echo \"start $$ $(date +%s.%N)\" >> {ATTEMPTS_LOG}; {LINE_BUFFERED}; \
+         $line_buffered \"$@\" > {STDOUT_FILE} 2> {STDERR_FILE} < /dev/null; rc=$?; \
          echo $rc > {EXIT_STATUS_FILE}.tmp && mv {EXIT_STATUS_FILE}.tmp {EXIT_STATUS_FILE}; \
          echo \"end $rc $(date +%s.%N)\" >> {ATTEMPTS_LOG}; exit $rc"
     )

@@ -28,6 +28,14 @@ pub const STDERR_FILE: &str = "stderr.txt";
 /// One line per attempt start and end, kept across attempts, in the run directory.
 pub const ATTEMPTS_LOG: &str = "orch-attempts.log";
 
+/// Shell that sets `$line_buffered` to `stdbuf -oL -eL` where coreutils' `stdbuf` is
+/// installed: a job's command runs behind it, so a C or MPI solver's stdout reaches
+/// `stdout.txt` line by line, and its `ERROR:` line is written before an `MPI_Abort`
+/// kills it (with a full buffer the line was lost, and the job's only reason was Open
+/// MPI's abort text).
+pub const LINE_BUFFERED: &str =
+    "line_buffered=; command -v stdbuf >/dev/null 2>&1 && line_buffered='stdbuf -oL -eL'";
+
 /// Launches jobs and reports on them, in the shape batch schedulers impose (after
 /// HyperQueue's `QueueHandler`): launch one job, poll many at once, terminate some.
 /// The driver decides what the answers mean for the study.

@@ -14,7 +14,9 @@ use std::fmt::Write;
 use std::time::Duration;
 
 use super::SlurmSettings;
-use crate::executor::{LaunchSpec, ATTEMPTS_LOG, EXIT_STATUS_FILE, STDERR_FILE, STDOUT_FILE};
+use crate::executor::{
+    LaunchSpec, ATTEMPTS_LOG, EXIT_STATUS_FILE, LINE_BUFFERED, STDERR_FILE, STDOUT_FILE,
+};
 
 /// File name of the batch script in the run directory.
 pub const BATCH_SCRIPT: &str = "orch-job.sbatch";
@@ -204,7 +206,8 @@ pub fn batch_script(spec: &LaunchSpec, settings: &SlurmSettings) -> Result<Strin
         .collect();
     let _ = writeln!(
         script,
-        "{} > {STDOUT_FILE} 2> {STDERR_FILE} < /dev/null\n\
+        "{LINE_BUFFERED}\n\
+         $line_buffered {} > {STDOUT_FILE} 2> {STDERR_FILE} < /dev/null\n\
          rc=$?\n\
          echo $rc > {EXIT_STATUS_FILE}.tmp && mv {EXIT_STATUS_FILE}.tmp {EXIT_STATUS_FILE}\n\
          echo \"end $rc $(date +%s.%N)\" >> {ATTEMPTS_LOG}\n\

@@ -83,7 +83,8 @@ fn a_hand_written_liggghts_deck_runs_as_a_study_with_its_declared_responses() {
         "{deck}"
     );
     assert!(deck.contains("pair_style      gran model hertz"), "{deck}");
-    assert!(run.join("materials.in").is_file());
+    // The side file keeps its path relative to the study file.
+    assert!(run.join("inclined-plane/materials.in").is_file());
 }
 
 /// A study of a user's script: `run.sh` writes `post/out.json` and prints a line.

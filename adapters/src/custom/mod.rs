@@ -41,7 +41,7 @@ pub struct CaseTemplate {
 /// A side file copied unchanged into every run.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct SideFile {
-    /// Its name in the run directory (its file name).
+    /// Its path in the run directory: its path relative to the study file's folder.
     pub name: String,
     /// Its bytes.
     pub bytes: Vec<u8>,
@@ -81,6 +81,9 @@ pub fn render_command(words: &[String], cores: usize) -> Result<Vec<String>, Str
 pub struct CustomDeck {
     templates: Vec<CaseTemplate>,
     files: Vec<SideFile>,
+    /// Folders made in every run directory before the deck starts: those the study
+    /// declares and those its responses' files are in.
+    folders: Vec<String>,
     command: DeckCommand,
     parameters: Vec<ParameterSpec>,
     responses: Vec<DeclaredResponse>,
@@ -93,6 +96,7 @@ impl CustomDeck {
     pub fn new(
         templates: Vec<CaseTemplate>,
         files: Vec<SideFile>,
+        mut folders: Vec<String>,
         command: DeckCommand,
         parameters: Vec<ParameterSpec>,
         responses: Vec<DeclaredResponse>,
@@ -111,9 +115,25 @@ impl CustomDeck {
                 over: crate::equipment::TIME_AXIS.into(),
             })
             .collect();
+        for response in &responses {
+            let file = response.source.file();
+            // The folder of the file, up to the first part that is a glob.
+            let parts: Vec<&str> = file.split('/').collect();
+            let folder: Vec<&str> = parts[..parts.len() - 1]
+                .iter()
+                .take_while(|part| !is_glob(part))
+                .copied()
+                .collect();
+            if !folder.is_empty() {
+                folders.push(folder.join("/"));
+            }
+        }
+        folders.sort();
+        folders.dedup();
         Ok(CustomDeck {
             templates,
             files,
+            folders,
             command,
             parameters,
             responses,
@@ -189,6 +209,10 @@ impl Simulation for CustomDeck {
         }
         for file in &self.files {
             write_bytes(run_dir, &file.name, &file.bytes)?;
+        }
+        for folder in &self.folders {
+            let path = run_dir.join(folder);
+            std::fs::create_dir_all(&path).map_err(|source| RenderError::Write { path, source })?;
         }
         Ok(())
     }

@@ -22,10 +22,19 @@ pub const EQUIPMENT: &str = orch_adapters::custom::EQUIPMENT;
 /// The most cores one job may ask for (`executor.cores_per_job`, `case.cores`).
 pub const MAX_CORES_PER_JOB: usize = 4096;
 
-/// The last component of a relative path: what a template or side file is called in
-/// the run directory.
+/// The last component of a relative path: what a template is called in the run
+/// directory.
 fn file_name(relative: &str) -> &str {
     relative.rsplit('/').next().unwrap_or(relative)
+}
+
+/// A relative path as it lands in a run directory: `/`-separated, without `.` parts.
+fn normal_path(relative: &str) -> String {
+    relative
+        .split('/')
+        .filter(|part| !part.is_empty() && *part != ".")
+        .collect::<Vec<_>>()
+        .join("/")
 }
 
 impl Checker<'_> {
@@ -178,12 +187,20 @@ impl Checker<'_> {
         let mut files = Vec::new();
         for (i, relative) in case.files.iter().enumerate() {
             let field = format!("case.files[{i}]");
-            let bytes = self.read_input(&field, relative)?;
-            inputs.push((relative.clone(), bytes.clone()));
-            let name = file_name(relative).to_string();
-            self.unique_in_run_dir(&field, &name, &outputs)?;
-            outputs.push(name.clone());
-            files.push(SideFile { name, bytes });
+            // A file lands at its path relative to the study file's folder; a folder's
+            // files each at theirs.
+            for (path, bytes) in self.read_inputs(&field, relative)? {
+                inputs.push((path.clone(), bytes.clone()));
+                self.unique_in_run_dir(&field, &path, &outputs)?;
+                outputs.push(path.clone());
+                files.push(SideFile { name: path, bytes });
+            }
+        }
+        let mut folders = Vec::new();
+        for (i, folder) in case.folders.iter().enumerate() {
+            let field = format!("case.folders[{i}]");
+            self.relative_path(&field, folder)?;
+            folders.push(normal_path(folder));
         }
         let cores = case.cores.unwrap_or(1);
         if cores == 0 || cores > MAX_CORES_PER_JOB {
@@ -249,6 +266,7 @@ impl Checker<'_> {
         CustomDeck::new(
             templates,
             files,
+            folders,
             DeckCommand {
                 words: command,
                 cores,
@@ -465,8 +483,110 @@ impl Checker<'_> {
         self.path.parent().unwrap_or(Path::new("."))
     }
 
+    /// The files under `relative` (a file, or a folder read whole), each as its path
+    /// relative to the study file's folder with its bytes, in path order: from the
+    /// store when it was stored, else from the disk.
+    fn read_inputs(
+        &self,
+        field: &str,
+        relative: &str,
+    ) -> Result<Vec<(String, Vec<u8>)>, StudyError> {
+        self.relative_path(field, relative)?;
+        let path = normal_path(relative);
+        if let Some(stored) = &self.stored {
+            if let Some(bytes) = stored
+                .inputs
+                .get(&path)
+                .or_else(|| stored.inputs.get(relative))
+            {
+                return Ok(vec![(path, bytes.clone())]);
+            }
+            let prefix = format!("{path}/");
+            let under: Vec<(String, Vec<u8>)> = stored
+                .inputs
+                .iter()
+                .filter(|(p, _)| p.starts_with(&prefix))
+                .map(|(p, b)| (p.clone(), b.clone()))
+                .collect();
+            if !under.is_empty() {
+                return Ok(under);
+            }
+        }
+        let resolved = self.inside_study_folder(field, relative)?;
+        if !resolved.is_dir() {
+            return Ok(vec![(path, self.read_input(field, relative)?)]);
+        }
+        let mut found = Vec::new();
+        let mut stack = vec![(resolved, path)];
+        while let Some((dir, at)) = stack.pop() {
+            let entries = std::fs::read_dir(&dir).map_err(|e| {
+                self.error(
+                    field,
+                    format!("cannot read the folder {}: {e}", dir.display()),
+                )
+            })?;
+            for entry in entries {
+                let entry = entry.map_err(|e| {
+                    self.error(
+                        field,
+                        format!("cannot read the folder {}: {e}", dir.display()),
+                    )
+                })?;
+                let name = entry.file_name().to_string_lossy().into_owned();
+                let inner = format!("{at}/{name}");
+                let real = self.inside_study_folder(field, &inner)?;
+                if real.is_dir() {
+                    stack.push((real, inner));
+                } else {
+                    let bytes = self.read_input(field, &inner)?;
+                    found.push((inner, bytes));
+                }
+            }
+        }
+        found.sort_by(|a, b| a.0.cmp(&b.0));
+        if found.is_empty() {
+            return Err(self.error(
+                field,
+                format!(
+                    "the folder {relative} holds no files; name files or a folder that has some"
+                ),
+            ));
+        }
+        Ok(found)
+    }
+
+    /// `relative` resolved on disk, links followed, refused when it leaves the study
+    /// file's folder (a link to a system file would be copied into every run and the
+    /// store).
+    fn inside_study_folder(
+        &self,
+        field: &str,
+        relative: &str,
+    ) -> Result<std::path::PathBuf, StudyError> {
+        let base = self.base();
+        let base = if base.as_os_str().is_empty() {
+            Path::new(".")
+        } else {
+            base
+        };
+        let resolved = base.join(relative);
+        let (Ok(real), Ok(real_base)) = (resolved.canonicalize(), base.canonicalize()) else {
+            return Ok(resolved); // a missing file is reported by the read, with its path
+        };
+        if !real.starts_with(&real_base) {
+            return Err(self.error(
+                field,
+                format!(
+                    "{relative} is a link to {}, outside the study's folder; copy the file into the folder instead",
+                    real.display()
+                ),
+            ));
+        }
+        Ok(real)
+    }
+
     /// A file the study names, from the store when it was stored, else from the disk
-    /// relative to the study file.
+    /// relative to the study file (a link leaving the study's folder is refused).
     fn read_input(&self, field: &str, relative: &str) -> Result<Vec<u8>, StudyError> {
         self.relative_path(field, relative)?;
         if let Some(stored) = &self.stored {
@@ -474,7 +594,7 @@ impl Checker<'_> {
                 return Ok(bytes.clone());
             }
         }
-        let resolved = self.base().join(relative);
+        let resolved = self.inside_study_folder(field, relative)?;
         std::fs::read(&resolved).map_err(|e| {
             self.error(
                 field,

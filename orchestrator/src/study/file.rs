@@ -157,10 +157,15 @@ pub struct CaseFile {
     /// Tera templates, relative to the study file, each rendered into every run under
     /// its file name without `.tera`.
     pub templates: Vec<String>,
-    /// Files copied unchanged into every run under their file name (meshes, includes,
-    /// restart files).
+    /// Files or folders copied unchanged into every run under their path relative to
+    /// the study file's folder (`meshes/chute.stl` lands as `meshes/chute.stl`; a
+    /// folder is copied whole): meshes, includes, restart files.
     #[serde(default)]
     pub files: Vec<String>,
+    /// Folders the deck writes into, made before it starts (besides those of the
+    /// responses' files, which are always made): `[post, dumps]`.
+    #[serde(default)]
+    pub folders: Vec<String>,
     /// The command, one word per element (`[liggghts, -in, in.chute]`); a word may use
     /// `{{ cores }}`.
     pub command: Vec<String>,

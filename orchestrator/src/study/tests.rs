@@ -756,3 +756,75 @@ fn a_study_name_longer_than_a_file_name_may_be_is_refused() {
         .starts_with("--as: expected at most 200"));
     assert!(study.rename(&"b".repeat(MAX_STUDY_NAME)).is_ok());
 }
+
+#[test]
+fn side_files_keep_their_paths_folders_are_copied_whole_and_links_out_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = dir.path();
+    std::fs::create_dir_all(root.join("meshes/parts")).unwrap();
+    std::fs::write(
+        root.join("deck.sh.tera"),
+        "cat meshes/chute.stl\necho y = {{ x }}\n",
+    )
+    .unwrap();
+    std::fs::write(root.join("meshes/chute.stl"), "solid chute").unwrap();
+    std::fs::write(root.join("meshes/parts/lip.stl"), "solid lip").unwrap();
+    let study = |files: &str| {
+        format!(
+            "name: sides\nequipment: custom\ncase:\n  templates: [deck.sh.tera]\n  files: {files}\n  folders: [dumps]\n  command: [sh, deck.sh]\n  responses:\n    - {{name: y, table: post/y.txt, column: 2}}\nfactors:\n  - {{name: x, min: 0, max: 1}}\ndesign: {{type: full_factorial, levels: 2}}\n"
+        )
+    };
+    let load = |text: &str| {
+        let path = root.join("sides.yaml");
+        std::fs::write(&path, text).unwrap();
+        Study::load(&path)
+    };
+    let loaded = load(&study("[./meshes]")).unwrap();
+    let run = tempfile::tempdir().unwrap();
+    loaded
+        .simulation
+        .render(&loaded.case(&loaded.points[0], 1), run.path())
+        .unwrap();
+    let read = |f: &str| std::fs::read_to_string(run.path().join(f)).unwrap();
+    assert_eq!(read("meshes/chute.stl"), "solid chute");
+    assert_eq!(read("meshes/parts/lip.stl"), "solid lip");
+    assert!(
+        run.path().join("post").is_dir(),
+        "a response's folder is made"
+    );
+    assert!(
+        run.path().join("dumps").is_dir(),
+        "a declared folder is made"
+    );
+    let inputs: Vec<&str> = loaded.inputs.iter().map(|(p, _)| p.as_str()).collect();
+    assert_eq!(
+        inputs,
+        ["deck.sh.tera", "meshes/chute.stl", "meshes/parts/lip.stl"]
+    );
+
+    let elsewhere = tempfile::tempdir().unwrap();
+    std::fs::write(elsewhere.path().join("secret"), "not the study's").unwrap();
+    std::os::unix::fs::symlink(
+        elsewhere.path().join("secret"),
+        root.join("meshes/host.stl"),
+    )
+    .unwrap();
+    let error = load(&study("[meshes/host.stl]")).unwrap_err().to_string();
+    assert!(
+        error.contains("case.files[0]: meshes/host.stl is a link to ")
+            && error.contains(
+                "secret, outside the study's folder; copy the file into the folder instead"
+            ),
+        "{error}"
+    );
+    let error = load(&study("[meshes]")).unwrap_err().to_string();
+    assert!(
+        error.contains("meshes/host.stl is a link to"),
+        "a link inside a folder: {error}"
+    );
+    std::fs::remove_file(root.join("meshes/host.stl")).unwrap();
+    // A link that stays inside the folder is followed.
+    std::os::unix::fs::symlink(root.join("meshes/chute.stl"), root.join("meshes/again.stl"))
+        .unwrap();
+    assert!(load(&study("[meshes/again.stl]")).is_ok());
+}

@@ -54,6 +54,16 @@ pub fn header(name: &str, unit: Option<&str>) -> String {
     }
 }
 
+/// `value` to 15 significant digits, written shortest: a design value computed from
+/// coded units (`0.1 + 0.2`) is exported as the `0.3` a user means, not as
+/// `0.30000000000000004`; a measured value keeps every digit.
+pub fn without_round_off(value: f64) -> f64 {
+    if !value.is_finite() || value == 0.0 {
+        return value;
+    }
+    format!("{value:.14e}").parse().unwrap_or(value)
+}
+
 /// The unit of a response or series: what the study's equipment or stages declare,
 /// or the solver's own figures (loop time, s; throughput, particle-steps per s).
 pub fn unit_of(study: Option<&Study>, name: &str) -> Option<String> {
@@ -295,6 +305,8 @@ pub struct RunRows {
     /// The table's headers.
     pub headers: Vec<String>,
     names: Vec<String>,
+    /// The study's `fixed:` values, the same in every row.
+    fixed: Vec<Cell>,
     page: JobPage,
 }
 
@@ -384,6 +396,27 @@ impl RunRows {
         .map(|s| s.to_string())
         .collect();
         headers.extend(factors.iter().map(|f| header(&f.name, Some(&f.unit))));
+        // The values the study holds fixed, numbers and text, as constant columns: a
+        // row says everything its run was made with.
+        let mut fixed = Vec::new();
+        if let Some(study) = study {
+            let unit = |name: &str| {
+                study
+                    .simulation
+                    .parameters()
+                    .iter()
+                    .find(|p| p.name == name)
+                    .map(|p| p.unit.to_string())
+            };
+            for (name, value) in &study.fixed {
+                headers.push(header(name, unit(name).as_deref()));
+                fixed.push(Cell::Real(without_round_off(*value)));
+            }
+            for (name, text) in &study.fixed_text {
+                headers.push(name.clone());
+                fixed.push(Cell::Text(text.clone()));
+            }
+        }
         headers.extend(
             names
                 .iter()
@@ -392,6 +425,7 @@ impl RunRows {
         Ok(RunRows {
             headers,
             names,
+            fixed,
             page,
         })
     }
@@ -424,7 +458,13 @@ impl RunRows {
             job.identity.clone().map_or(Cell::Empty, Cell::Text),
             job.reused_from.clone().map_or(Cell::Empty, Cell::Text),
         ];
-        cells.extend(point.natural.iter().map(|v| Cell::Real(*v)));
+        cells.extend(
+            point
+                .natural
+                .iter()
+                .map(|v| Cell::Real(without_round_off(*v))),
+        );
+        cells.extend(self.fixed.iter().cloned());
         cells.extend(
             self.names
                 .iter()

@@ -71,9 +71,18 @@ fn export_writes_one_csv_row_per_run_with_units_that_python_reads_and_series_in_
         "state",
         "outlet_diameter [m]",
         "amplitude [m]",
+        "identity",
+        "reused_from",
+        "fill_time [s]",
+        "n_particles [-]",
     ] {
         assert!(header.contains(&column.to_string()), "{header:?}");
     }
+    let fill = header.iter().position(|h| h == "fill_time [s]").unwrap();
+    assert!(
+        rows[1..].iter().all(|r| r[fill] == "0.12"),
+        "a fixed value in every row"
+    );
     assert_eq!(rows.len(), 1 + 9, "{rows:?}");
     let status = project.status("small");
     let column = |name: &str| header.iter().position(|h| h == name).unwrap();
@@ -82,8 +91,11 @@ fn export_writes_one_csv_row_per_run_with_units_that_python_reads_and_series_in_
         let row = rows.iter().find(|r| r[0] == name).unwrap();
         assert_eq!(row[column("state")], "succeeded");
         assert_eq!(row[column("purpose")], "design");
+        // A design value is exported without its round-off (15 significant digits).
         let outlet: f64 = row[column("outlet_diameter [m]")].parse().unwrap();
-        assert_eq!(outlet, job["factors"]["outlet_diameter"].as_f64().unwrap());
+        let stored = job["factors"]["outlet_diameter"].as_f64().unwrap();
+        assert_eq!(outlet, format!("{stored:.14e}").parse::<f64>().unwrap());
+        assert!(row[column("outlet_diameter [m]")].len() <= 17, "{row:?}");
         // Every stored response is a column with its unit, and equal to the store's.
         for (response, value) in job["responses"].as_object().unwrap() {
             let cell = header

@@ -76,6 +76,19 @@ pub fn render_command(words: &[String], cores: usize) -> Result<Vec<String>, Str
         .collect()
 }
 
+/// What a declared response's series is over: a table's time column (by its name, or
+/// its number), the match number of a regular expression, the index of a JSON array.
+fn axis_of(source: &Source) -> String {
+    match source {
+        Source::Table { time_column, .. } => match time_column {
+            Column::Name(name) => name.clone(),
+            Column::Index(index) => format!("column {index}"),
+        },
+        Source::Regex { .. } => "match [-]".to_string(),
+        Source::Json { .. } => "index [-]".to_string(),
+    }
+}
+
 /// A user's own deck.
 #[derive(Debug, Clone)]
 pub struct CustomDeck {
@@ -112,7 +125,7 @@ impl CustomDeck {
                 name: r.name.clone().into(),
                 unit: r.unit.clone().into(),
                 description: format!("declared: {} of {}", r.reduce.name(), r.source).into(),
-                over: crate::equipment::TIME_AXIS.into(),
+                over: axis_of(&r.source).into(),
             })
             .collect();
         for response in &responses {
@@ -251,5 +264,77 @@ impl Simulation for CustomDeck {
             }
         }
         Ok(results)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn response(name: &str, source: Source) -> DeclaredResponse {
+        DeclaredResponse {
+            name: name.into(),
+            unit: "kg".into(),
+            source,
+            reduce: Reduction::Last,
+            from: None,
+            to: None,
+            pick: Pick::Last,
+        }
+    }
+
+    #[test]
+    fn series_are_over_their_real_axis_and_response_folders_are_made() {
+        let deck = CustomDeck::new(
+            vec![CaseTemplate {
+                source: "deck.sh.tera".into(),
+                output: "deck.sh".into(),
+                text: "echo {{ x }}".into(),
+            }],
+            vec![],
+            vec!["dumps".into()],
+            DeckCommand {
+                words: vec!["sh".into(), "deck.sh".into()],
+                cores: 1,
+                log_file: "stdout.txt".into(),
+            },
+            vec![],
+            vec![
+                response(
+                    "a",
+                    Source::Table {
+                        file: "post/a.txt".into(),
+                        column: Column::Index(2),
+                        time_column: Column::Name("TimeStep".into()),
+                    },
+                ),
+                response(
+                    "b",
+                    Source::regex("log/run.log".into(), "b = (\\S+)").unwrap(),
+                ),
+                response(
+                    "c",
+                    Source::Json {
+                        file: "out/*/c.json".into(),
+                        key: "c".into(),
+                    },
+                ),
+            ],
+        )
+        .unwrap();
+        let over: Vec<&str> = deck.series().iter().map(|s| s.over.as_ref()).collect();
+        assert_eq!(over, ["TimeStep", "match [-]", "index [-]"]);
+        let run = tempfile::tempdir().unwrap();
+        let mut parameters = crate::ResolvedParameters::defaults(&[]);
+        parameters.set("x", 1.0);
+        let case = Case {
+            parameters,
+            text: Default::default(),
+            seed: 1,
+        };
+        deck.render(&case, run.path()).unwrap();
+        for folder in ["post", "log", "out", "dumps"] {
+            assert!(run.path().join(folder).is_dir(), "{folder}");
+        }
     }
 }

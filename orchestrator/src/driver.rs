@@ -245,6 +245,27 @@ struct Driver<'a, E> {
     reused_in_tick: bool,
 }
 
+/// What became of a job whose run the project may already have.
+enum Reuse {
+    /// It was recorded (reused, or failed as the study counts that run).
+    Done,
+    /// No succeeded run has its identity, or the study runs everything.
+    NoSource,
+    /// One has, but its files could not be linked or read: the job runs after all,
+    /// from a clean run directory.
+    RunAgain,
+}
+
+/// What reading a finished run gave.
+enum Read {
+    /// Its results, as its parsers read them.
+    Results(RunResults),
+    /// Why its output cannot be read.
+    Unreadable(String),
+    /// Ctrl-C or SIGTERM came first; the job is left as it was.
+    Interrupted,
+}
+
 /// A flag that turns true on the first Ctrl-C (SIGINT) or SIGTERM, set by a task of its
 /// own, so that a driver busy reading a large output still stops within a tick.
 fn stop_on_signals() -> Result<tokio::sync::watch::Receiver<bool>, DriverError> {
@@ -535,8 +556,28 @@ impl<E: Executor> Driver<'_, E> {
                     continue;
                 }
             };
-            if self.reuse(job, &identity).await? {
-                continue;
+            match self.reuse(job, &identity).await? {
+                Reuse::Done => continue,
+                Reuse::NoSource => {}
+                Reuse::RunAgain => {
+                    // The source's files were linked in: start again from a clean
+                    // directory with the job's own inputs.
+                    let again = clean_run_dir(&run_dir).map_err(|e| {
+                        format!(
+                            "cannot prepare the run directory {}: {e}",
+                            run_dir.display()
+                        )
+                    });
+                    let again = match again {
+                        Ok(()) => self.render(job, &run_dir).await,
+                        Err(message) => Err(message),
+                    };
+                    if let Err(message) = again {
+                        self.report(job, &message);
+                        self.store.mark_failed(job.id, None, &message).await?;
+                        continue;
+                    }
+                }
             }
             self.store.mark_rendered(job.id, &identity).await?;
             let spec = LaunchSpec {
@@ -583,39 +624,19 @@ impl<E: Executor> Driver<'_, E> {
     }
 
     /// When the project already holds a succeeded run with `identity` (and the study
-    /// allows reuse), records `job` as that run — its files linked into the job's run
-    /// directory, its results copied — and returns true: the same deck is never run
-    /// twice. A run whose files cannot be linked is run again instead.
-    async fn reuse(&mut self, job: &JobRow, identity: &str) -> Result<bool, DriverError> {
+    /// allows reuse), records `job` as that run and returns true: the same deck is
+    /// never run twice. The run's files are linked into the job's run directory and
+    /// read with this study's parsers (a study that declares other responses gets
+    /// them); a run whose files cannot be linked or read is run again instead.
+    async fn reuse(&mut self, job: &JobRow, identity: &str) -> Result<Reuse, DriverError> {
         if !self.study.reuse {
-            return Ok(false);
+            return Ok(Reuse::NoSource);
         }
         let Some(source) = self.store.succeeded_run(identity, job.id).await? else {
-            return Ok(false);
+            return Ok(Reuse::NoSource);
         };
-        // The run is the same; what counts as a success is this study's to say.
-        let stored = RunResults {
-            responses: self
-                .store
-                .job_responses(source.job_id)
-                .await?
-                .into_iter()
-                .collect(),
-            ..RunResults::default()
-        };
-        if let Some(missing) = self.missing_responses(job, &stored) {
-            if self.study.fail_on_missing_response {
-                let reason = format!(
-                    "the same run as {} (not run again), which {}",
-                    source.name,
-                    source.note.as_deref().unwrap_or(&missing)
-                );
-                self.report(job, &format!("failed: {reason}"));
-                self.store.mark_failed(job.id, Some(0), &reason).await?;
-                return Ok(true);
-            }
-        }
-        if let Err(e) = crate::identity::link_run(&source.run_dir, Path::new(&job.run_dir)) {
+        let run_dir = Path::new(&job.run_dir);
+        if let Err(e) = crate::identity::link_run(&source.run_dir, run_dir) {
             self.report(
                 job,
                 &format!(
@@ -624,21 +645,32 @@ impl<E: Executor> Driver<'_, E> {
                     source.run_dir.display()
                 ),
             );
-            return Ok(false);
+            return Ok(Reuse::RunAgain);
         }
-        self.store.mark_reused(job.id, identity, &source).await?;
-        self.reused_in_tick = true;
-        let responses: Vec<(String, f64)> = self
-            .store
-            .job_responses(job.id)
-            .await?
-            .into_iter()
-            .collect();
-        let results = JobResults {
-            note: None,
-            responses,
-            series: Vec::new(),
+        let results = match self.read_run(job).await? {
+            Read::Interrupted => return Ok(Reuse::Done),
+            Read::Unreadable(reason) => {
+                self.report(
+                    job,
+                    &format!(
+                        "the same run as {}, but its output cannot be read now ({reason}; `keep:` may have pruned it); running it again",
+                        source.name
+                    ),
+                );
+                return Ok(Reuse::RunAgain);
+            }
+            Read::Results(results) => results,
         };
+        self.reused_in_tick = true;
+        let counted = self
+            .as_the_study_counts(job, results, Some(&source.name))
+            .await?;
+        let Some(results) = counted else {
+            return Ok(Reuse::Done);
+        };
+        self.store
+            .mark_reused(job.id, identity, &source, &results)
+            .await?;
         self.report(
             job,
             &format!(
@@ -647,13 +679,8 @@ impl<E: Executor> Driver<'_, E> {
                 self.shown(&results)
             ),
         );
-        self.prune(job);
-        if job.stage_kind() == Some(AIR_STAGE) {
-            if let Some(line) = self.settle_coupling(job, &results).await? {
-                self.report(job, &line);
-            }
-        }
-        Ok(true)
+        self.after_success(job, &results).await?;
+        Ok(Reuse::Done)
     }
 
     /// Asks the executor about every launched job at once and acts on the answers.
@@ -876,8 +903,29 @@ impl<E: Executor> Driver<'_, E> {
     /// Parses a successful run and stores its results, or retries or fails the job
     /// with why not.
     async fn collect(&mut self, job: &JobRow) -> Result<(), DriverError> {
-        let unreadable =
-            |reason| decide::retry_or_fail(job, &self.budgets, Failure::Unreadable(reason));
+        match self.read_run(job).await? {
+            Read::Interrupted => Ok(()),
+            Read::Unreadable(reason) => {
+                let action = decide::retry_or_fail(job, &self.budgets, Failure::Unreadable(reason));
+                self.record_failure(job, action).await
+            }
+            Read::Results(results) => {
+                let Some(results) = self.as_the_study_counts(job, results, None).await? else {
+                    return Ok(());
+                };
+                self.report_success(job, &results);
+                self.store.mark_succeeded(job.id, 0, &results).await?;
+                self.after_success(job, &results).await
+            }
+        }
+    }
+
+    /// Reads what the run in `job`'s run directory wrote, with this study's parsers: the
+    /// same for a run that just ended and for one a job reuses (whose files were
+    /// linked in), so a study that declares other responses reads them from the run.
+    /// Ctrl-C or SIGTERM does not wait for a long read: [`Read::Interrupted`], and the
+    /// job is left for `orch resume`.
+    async fn read_run(&mut self, job: &JobRow) -> Result<Read, DriverError> {
         let mut case = self.case(job).await?;
         let simulation = self.study.simulation.clone();
         let stage = match job.stage_kind() {
@@ -886,25 +934,23 @@ impl<E: Executor> Driver<'_, E> {
                     case = in_moving_air(&case, &air);
                     None
                 }
-                Err(reason) => return self.record_failure(job, unreadable(reason)).await,
+                Err(reason) => return Ok(Read::Unreadable(reason)),
             },
             Some(kind) => match self.stage_of(kind) {
                 Ok(config) => Some(config.stage),
-                Err(reason) => return self.record_failure(job, unreadable(reason)).await,
+                Err(reason) => return Ok(Read::Unreadable(reason)),
             },
             None => None,
         };
         let dir = PathBuf::from(&job.run_dir);
         if self.stopped() {
             self.uncollected.insert(job.id);
-            return Ok(());
+            return Ok(Read::Interrupted);
         }
         let parse = tokio::task::spawn_blocking(move || match stage {
             Some(stage) => stage.results(&dir),
             None => simulation.results(&case, &dir),
         });
-        // Reading a large output takes long; Ctrl-C or SIGTERM does not wait for it.
-        // The job stays running in the store, and `orch resume` reads it.
         let mut stop = self.stop.clone();
         let parsed = tokio::select! {
             joined = parse => {
@@ -912,43 +958,64 @@ impl<E: Executor> Driver<'_, E> {
             }
             _ = stop.wait_for(|stopped| *stopped) => {
                 self.uncollected.insert(job.id);
-                return Ok(());
+                return Ok(Read::Interrupted);
             }
         };
-        match parsed {
-            Ok(results) => {
-                let missing = self.missing_responses(job, &results);
-                let mut results = job_results(results);
-                if let Some(reason) = missing {
-                    if self.study.fail_on_missing_response {
-                        self.report(job, &format!("failed: {reason}"));
-                        self.store.mark_failed(job.id, Some(0), &reason).await?;
-                        return Ok(());
-                    }
-                    self.report(job, &reason);
-                    results.note = Some(match results.note.take() {
-                        Some(note) => format!("{reason}; {note}"),
-                        None => reason,
-                    });
-                }
-                if let Some(stopped) = convergence::stopped_early(Path::new(&job.run_dir)) {
-                    results.note = Some(match results.note.take() {
-                        Some(note) => format!("{note}; {stopped}"),
-                        None => stopped,
-                    });
-                }
-                self.report_success(job, &results);
-                self.store.mark_succeeded(job.id, 0, &results).await?;
-                self.prune(job);
-                if job.stage_kind() == Some(AIR_STAGE) {
-                    if let Some(line) = self.settle_coupling(job, &results).await? {
-                        self.report(job, &line);
-                    }
-                }
+        Ok(match parsed {
+            Ok(results) => Read::Results(results),
+            Err(e) => Read::Unreadable(format!(
+                "the solver exited 0 but its output cannot be read: {e}"
+            )),
+        })
+    }
+
+    /// `results` as this study counts them: with a response it asks for missing, the
+    /// job fails (`missing_response: fail`, returns `None`) or succeeds saying why; a
+    /// run stopped early says so.
+    async fn as_the_study_counts(
+        &mut self,
+        job: &JobRow,
+        results: RunResults,
+        reused_from: Option<&str>,
+    ) -> Result<Option<JobResults>, DriverError> {
+        let missing = self.missing_responses(job, &results);
+        let mut results = job_results(results);
+        if let Some(reason) = missing {
+            if self.study.fail_on_missing_response {
+                let reason = match reused_from {
+                    Some(source) => format!("the same run as {source} (not run again) {reason}"),
+                    None => reason,
+                };
+                self.report(job, &format!("failed: {reason}"));
+                self.store.mark_failed(job.id, Some(0), &reason).await?;
+                return Ok(None);
             }
-            Err(e) => {
-                let reason = format!("the solver exited 0 but its output cannot be read: {e}");
-                self.record_failure(job, unreadable(reason)).await?;
+            self.report(job, &reason);
+            results.note = Some(match results.note.take() {
+                Some(note) => format!("{reason}; {note}"),
+                None => reason,
+            });
+        }
+        if let Some(stopped) = convergence::stopped_early(Path::new(&job.run_dir)) {
+            results.note = Some(match results.note.take() {
+                Some(note) => format!("{note}; {stopped}"),
+                None => stopped,
+            });
+        }
+        Ok(Some(results))
+    }
+
+    /// What follows a stored success: the run directory pruned as `keep:` says, and a
+    /// coupled chain checked for having settled.
+    async fn after_success(
+        &mut self,
+        job: &JobRow,
+        results: &JobResults,
+    ) -> Result<(), DriverError> {
+        self.prune(job);
+        if job.stage_kind() == Some(AIR_STAGE) {
+            if let Some(line) = self.settle_coupling(job, results).await? {
+                self.report(job, &line);
             }
         }
         Ok(())

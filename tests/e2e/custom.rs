@@ -127,6 +127,24 @@ fn a_user_script_reports_json_and_log_responses() {
         );
         assert_eq!(job["responses"]["printed"].as_f64(), Some(x), "{job:#}");
     }
+
+    // Another response declared for the same decks: nothing runs again, every run's
+    // files are read with the new declarations.
+    let more = SCRIPT_STUDY.replace(
+        "    - {name: printed, regex: 'value = (\\S+)', unit: m}\n",
+        "    - {name: printed, regex: 'value = (\\S+)', unit: m}\n    - {name: value_lines, regex: 'value = (\\S+)', reduce: count}\n",
+    );
+    assert_ne!(more, SCRIPT_STUDY);
+    let file = project.write("more.yaml", &more);
+    let output = project.run(&["submit", "--as", "script-more", file.to_str().unwrap()]);
+    let stderr = text(&output.stderr);
+    assert_eq!(output.status.code(), Some(0), "{stderr}");
+    assert!(stderr.contains("3 of them reused"), "{stderr}");
+    let status = project.status("script-more");
+    for job in status["jobs"].as_array().unwrap() {
+        assert_eq!(job["attempts"], 0, "{job:#}");
+        assert_eq!(job["responses"]["value_lines"].as_f64(), Some(1.0), "{job:#}");
+    }
 }
 
 /// `orch submit` of `study` with `template` as `deck.sh.tera`: exit code and stderr.

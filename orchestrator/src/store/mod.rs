@@ -1017,14 +1017,16 @@ impl Store {
         }))
     }
 
-    /// pending → succeeded without running: the job is the run `source`, whose
-    /// responses and series it takes a copy of, in one transaction. It keeps no start
-    /// or end time (it never ran, so it tells nothing of how long a run takes).
+    /// pending → succeeded without running: the job is the run `source`, with the
+    /// `results` this study read from that run's files (its own parsers, so a study
+    /// declaring other responses gets them), in one transaction. It keeps no start or
+    /// end time (it never ran, so it tells nothing of how long a run takes).
     pub async fn mark_reused(
         &self,
         job_id: i64,
         identity: &str,
         source: &ReuseSource,
+        results: &JobResults,
     ) -> Result<(), StoreError> {
         let mut tx = self.begin_write().await?;
         let note = format!("reused from {}", source.name);
@@ -1034,36 +1036,17 @@ impl Store {
             &[JobState::Pending],
             JobState::Succeeded,
             "identity = ?, reused_from_job = ?, reused_from = ?, started_at = NULL, finished_at = NULL,
-             exit_code = (SELECT exit_code FROM jobs WHERE id = ?), error = (SELECT error FROM jobs WHERE id = ?)",
+             exit_code = 0, error = ?",
             vec![
                 Bind::Text(identity.to_string()),
                 Bind::Int(source.job_id),
                 Bind::Text(source.name.clone()),
-                Bind::Int(source.job_id),
-                Bind::Int(source.job_id),
+                results.note.clone().map_or(Bind::Null, Bind::Text),
             ],
             Some(&note),
         )
         .await?;
-        for table in ["responses", "series"] {
-            sqlx::query(&format!("DELETE FROM {table} WHERE job_id = ?"))
-                .bind(job_id)
-                .execute(&mut *tx)
-                .await
-                .map_err(query_error("clear old results"))?;
-        }
-        sqlx::query("INSERT INTO responses (job_id, name, value) SELECT ?, name, value FROM responses WHERE job_id = ?")
-            .bind(job_id)
-            .bind(source.job_id)
-            .execute(&mut *tx)
-            .await
-            .map_err(query_error("copy a reused run's responses"))?;
-        sqlx::query("INSERT INTO series (job_id, name, t, value) SELECT ?, name, t, value FROM series WHERE job_id = ?")
-            .bind(job_id)
-            .bind(source.job_id)
-            .execute(&mut *tx)
-            .await
-            .map_err(query_error("copy a reused run's series"))?;
+        store_results(&mut tx, job_id, results).await?;
         tx.commit()
             .await
             .map_err(query_error("commit a reused run"))
@@ -1177,34 +1160,7 @@ impl Store {
             None,
         )
         .await?;
-        for table in ["responses", "series"] {
-            sqlx::query(&format!("DELETE FROM {table} WHERE job_id = ?"))
-                .bind(job_id)
-                .execute(&mut *tx)
-                .await
-                .map_err(query_error("clear old results"))?;
-        }
-        for (name, value) in &results.responses {
-            sqlx::query("INSERT INTO responses (job_id, name, value) VALUES (?, ?, ?)")
-                .bind(job_id)
-                .bind(name)
-                .bind(value)
-                .execute(&mut *tx)
-                .await
-                .map_err(query_error("record a response"))?;
-        }
-        for (name, points) in &results.series {
-            for (t, value) in points {
-                sqlx::query("INSERT INTO series (job_id, name, t, value) VALUES (?, ?, ?, ?)")
-                    .bind(job_id)
-                    .bind(name)
-                    .bind(t)
-                    .bind(value)
-                    .execute(&mut *tx)
-                    .await
-                    .map_err(query_error("record a time series"))?;
-            }
-        }
+        store_results(&mut tx, job_id, results).await?;
         tx.commit()
             .await
             .map_err(query_error("commit a job's results"))
@@ -1367,6 +1323,43 @@ pub(crate) async fn insert_planned(
             .map_err(query_error("record a job"))?
             .get(0);
             ids.push(id);
+        }
+    }
+    Ok(())
+}
+
+/// Replaces `job_id`'s responses and series with `results`, inside `tx`.
+async fn store_results(
+    tx: &mut sqlx::SqliteConnection,
+    job_id: i64,
+    results: &JobResults,
+) -> Result<(), StoreError> {
+    for table in ["responses", "series"] {
+        sqlx::query(&format!("DELETE FROM {table} WHERE job_id = ?"))
+            .bind(job_id)
+            .execute(&mut *tx)
+            .await
+            .map_err(query_error("clear old results"))?;
+    }
+    for (name, value) in &results.responses {
+        sqlx::query("INSERT INTO responses (job_id, name, value) VALUES (?, ?, ?)")
+            .bind(job_id)
+            .bind(name)
+            .bind(value)
+            .execute(&mut *tx)
+            .await
+            .map_err(query_error("record a response"))?;
+    }
+    for (name, points) in &results.series {
+        for (t, value) in points {
+            sqlx::query("INSERT INTO series (job_id, name, t, value) VALUES (?, ?, ?, ?)")
+                .bind(job_id)
+                .bind(name)
+                .bind(t)
+                .bind(value)
+                .execute(&mut *tx)
+                .await
+                .map_err(query_error("record a time series"))?;
         }
     }
     Ok(())

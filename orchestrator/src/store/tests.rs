@@ -88,20 +88,27 @@ async fn a_job_moves_through_its_states_and_keeps_its_results() {
     );
 }
 
+/// One response and one series of `rate`.
+fn rate_results(rate: f64) -> JobResults {
+    JobResults {
+        responses: vec![("discharge_rate".into(), rate)],
+        series: vec![("mass_flow_rate".into(), vec![(0.1, rate)])],
+        note: None,
+    }
+}
+
 /// Runs `job` to success with identity `identity` and one response and series.
 async fn succeed_as(store: &Store, job: i64, identity: &str, rate: f64) {
     store.mark_rendered(job, identity).await.unwrap();
     store.mark_running(job, "1:1", 1.0).await.unwrap();
-    let results = JobResults {
-        responses: vec![("discharge_rate".into(), rate)],
-        series: vec![("mass_flow_rate".into(), vec![(0.1, rate)])],
-        note: None,
-    };
-    store.mark_succeeded(job, 0, &results).await.unwrap();
+    store
+        .mark_succeeded(job, 0, &rate_results(rate))
+        .await
+        .unwrap();
 }
 
 #[tokio::test]
-async fn a_job_with_a_succeeded_identity_is_that_run_with_a_copy_of_its_results() {
+async fn a_job_with_a_succeeded_identity_is_that_run_with_the_results_read_from_it() {
     let (_dir, store, id) = store_with_study().await;
     let jobs = store.jobs(id).await.unwrap();
     let (first, copy) = (jobs[0].id, jobs[5].id);
@@ -118,7 +125,10 @@ async fn a_job_with_a_succeeded_identity_is_that_run_with_a_copy_of_its_results(
         (source.job_id, source.name.as_str()),
         (first, "small/p000r0")
     );
-    store.mark_reused(copy, "same", &source).await.unwrap();
+    store
+        .mark_reused(copy, "same", &source, &rate_results(0.15))
+        .await
+        .unwrap();
     let row = store.job(copy).await.unwrap();
     assert_eq!(row.state(), JobState::Succeeded);
     assert_eq!(row.attempts, 0, "nothing was launched");
@@ -146,7 +156,10 @@ async fn a_job_with_a_succeeded_identity_is_that_run_with_a_copy_of_its_results(
         .unwrap();
     assert_eq!(third.job_id, first);
     // Only a pending job can be recorded as reused.
-    assert!(store.mark_reused(first, "same", &source).await.is_err());
+    assert!(store
+        .mark_reused(first, "same", &source, &rate_results(0.15))
+        .await
+        .is_err());
 }
 
 #[tokio::test]
@@ -163,7 +176,10 @@ async fn deleting_a_study_leaves_the_runs_other_studies_reused_whole() {
     succeed_as(&store, first, "same", 0.15).await;
     let reuser = store.jobs(again_id).await.unwrap()[0].id;
     let source = store.succeeded_run("same", reuser).await.unwrap().unwrap();
-    store.mark_reused(reuser, "same", &source).await.unwrap();
+    store
+        .mark_reused(reuser, "same", &source, &rate_results(0.15))
+        .await
+        .unwrap();
     assert_eq!(
         store.reusers_of(id).await.unwrap(),
         vec!["small-again/p000r0"]

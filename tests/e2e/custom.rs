@@ -143,7 +143,11 @@ fn a_user_script_reports_json_and_log_responses() {
     let status = project.status("script-more");
     for job in status["jobs"].as_array().unwrap() {
         assert_eq!(job["attempts"], 0, "{job:#}");
-        assert_eq!(job["responses"]["value_lines"].as_f64(), Some(1.0), "{job:#}");
+        assert_eq!(
+            job["responses"]["value_lines"].as_f64(),
+            Some(1.0),
+            "{job:#}"
+        );
     }
 }
 

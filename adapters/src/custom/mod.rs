@@ -9,6 +9,7 @@
 //! or from outside the study folder reaches a run directory.
 
 mod declared;
+pub mod vtk;
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -86,6 +87,11 @@ fn axis_of(source: &Source) -> String {
         },
         Source::Regex { .. } => "match [-]".to_string(),
         Source::Json { .. } => "index [-]".to_string(),
+        Source::Vtk { field, .. } => match field.at {
+            Some(vtk::Attribute::Point) => "point [-]".to_string(),
+            Some(vtk::Attribute::Cell) => "cell [-]".to_string(),
+            None => "point or cell [-]".to_string(),
+        },
     }
 }
 

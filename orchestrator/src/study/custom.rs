@@ -7,6 +7,7 @@
 
 use std::path::{Component, Path};
 
+use orch_adapters::custom::vtk::{Attribute as VtkAttribute, VtkField};
 use orch_adapters::custom::{
     render_command, CaseTemplate, Column, CustomDeck, DeckCommand, DeclaredResponse, Pick,
     Reduction, SideFile, Source,
@@ -334,38 +335,79 @@ impl Checker<'_> {
             declared.table.is_some(),
             declared.regex.is_some(),
             declared.json.is_some(),
+            declared.vtk.is_some(),
         ];
-        let source = match (&declared.table, &declared.regex, &declared.json) {
-            _ if sources.iter().filter(|s| **s).count() != 1 => {
-                return Err(self.error(
+        if sources.iter().filter(|s| **s).count() != 1 {
+            return Err(self.error(
+                at,
+                "expected exactly one source: `table:` (with `column:`), `regex:` (over `file:`, default the log), `json:` (with `key:`) or `vtk:` (with `field:`)",
+            ));
+        }
+        if let Some(vtk) = &declared.vtk {
+            self.relative_path(&field("vtk"), vtk)?;
+        }
+        let vtk_source = |vtk: &String| -> Result<Source, StudyError> {
+            let name = declared.field.clone().ok_or_else(|| {
+                self.error(
                     at,
-                    "expected exactly one source: `table:` (with `column:`), `regex:` (over `file:`, default the log) or `json:` (with `key:`)",
-                ))
-            }
+                    "a `vtk:` response needs `field:` (the name of a point or cell array)",
+                )
+            })?;
+            let where_ = match declared.at.as_deref() {
+                None => None,
+                Some("point") => Some(VtkAttribute::Point),
+                Some("cell") => Some(VtkAttribute::Cell),
+                Some(other) => {
+                    return Err(self.error(
+                        &field("at"),
+                        format!("expected `point` or `cell`, got `{other}`"),
+                    ))
+                }
+            };
+            Ok(Source::Vtk {
+                file: vtk.clone(),
+                field: VtkField {
+                    name,
+                    at: where_,
+                    component: declared.component,
+                },
+            })
+        };
+        let source = match (&declared.table, &declared.regex, &declared.json) {
+            (None, None, None) => vtk_source(declared.vtk.as_ref().expect("one source is set"))?,
             (Some(table), _, _) => {
                 self.relative_path(&field("table"), table)?;
                 Source::Table {
                     file: table.clone(),
                     column: column(&declared.column, None, "column")?,
-                    time_column: column(&declared.time_column, Some(Column::Index(1)), "time_column")?,
+                    time_column: column(
+                        &declared.time_column,
+                        Some(Column::Index(1)),
+                        "time_column",
+                    )?,
                 }
             }
             (_, Some(pattern), _) => {
-                let file = declared.file.clone().unwrap_or_else(|| log_file.to_string());
+                let file = declared
+                    .file
+                    .clone()
+                    .unwrap_or_else(|| log_file.to_string());
                 self.relative_path(&field("file"), &file)?;
                 Source::regex(file, pattern).map_err(|e| self.error(&field("regex"), e))?
             }
             (_, _, Some(json)) => {
                 self.relative_path(&field("json"), json)?;
                 let key = declared.key.clone().ok_or_else(|| {
-                    self.error(at, "a `json:` response needs `key:` (a dotted path, e.g. `flow.rate`)")
+                    self.error(
+                        at,
+                        "a `json:` response needs `key:` (a dotted path, e.g. `flow.rate`)",
+                    )
                 })?;
                 Source::Json {
                     file: json.clone(),
                     key,
                 }
             }
-            _ => unreachable!("exactly one source is set"),
         };
         let misplaced = [
             (
@@ -378,6 +420,12 @@ impl Checker<'_> {
             ),
             ("file", declared.file.is_some() && declared.regex.is_none()),
             ("key", declared.key.is_some() && declared.json.is_none()),
+            ("field", declared.field.is_some() && declared.vtk.is_none()),
+            ("at", declared.at.is_some() && declared.vtk.is_none()),
+            (
+                "component",
+                declared.component.is_some() && declared.vtk.is_none(),
+            ),
             (
                 "pick",
                 declared.pick.is_some() && !orch_adapters::custom::is_glob(source.file()),
@@ -398,6 +446,7 @@ impl Checker<'_> {
                     Source::Table { .. } => "table",
                     Source::Regex { .. } => "file",
                     Source::Json { .. } => "json",
+                    Source::Vtk { .. } => "vtk",
                 };
                 return Err(self.error(&field(which), why));
             }

@@ -238,6 +238,18 @@ pub struct DeclaredResponseFile {
     /// A JSON file, with `key:`.
     #[serde(default)]
     pub json: Option<String>,
+    /// A legacy VTK file (`dump mesh/vtk`, `dump custom/vtk`), with `field:`.
+    #[serde(default)]
+    pub vtk: Option<String>,
+    /// The point or cell field of a `vtk:` file.
+    #[serde(default)]
+    pub field: Option<String>,
+    /// Where a `vtk:` field is: `point` or `cell` (default: whichever has it).
+    #[serde(default)]
+    pub at: Option<String>,
+    /// The component (from 0) of a `vtk:` field of several (default: its magnitude).
+    #[serde(default)]
+    pub component: Option<usize>,
     /// The file a `regex:` reads.
     #[serde(default)]
     pub file: Option<String>,

@@ -828,3 +828,53 @@ fn side_files_keep_their_paths_folders_are_copied_whole_and_links_out_are_refuse
         .unwrap();
     assert!(load(&study("[meshes/again.stl]")).is_ok());
 }
+
+#[test]
+fn a_vtk_response_names_its_field_and_where_it_is() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("deck.sh.tera"), "echo {{ x }}\n").unwrap();
+    let study = |response: &str| {
+        format!(
+            "name: worn\nequipment: custom\ncase:\n  templates: [deck.sh.tera]\n  command: [sh, deck.sh]\n  responses:\n    - {response}\nfactors:\n  - {{name: x, min: 0, max: 1}}\ndesign: {{type: full_factorial, levels: 2}}\n"
+        )
+    };
+    let load = |text: &str| {
+        let path = dir.path().join("worn.yaml");
+        std::fs::write(&path, text).unwrap();
+        Study::load(&path).map(|_| ())
+    };
+    load(&study(
+        "{name: wear, vtk: 'post/mesh_*.vtk', field: wear, at: cell, reduce: sum, pick: newest}",
+    ))
+    .unwrap();
+    let no_field = load(&study("{name: wear, vtk: post/mesh.vtk}"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        no_field.contains("a `vtk:` response needs `field:`"),
+        "{no_field}"
+    );
+    let bad_at = load(&study(
+        "{name: wear, vtk: post/mesh.vtk, field: wear, at: edge}",
+    ))
+    .unwrap_err()
+    .to_string();
+    assert!(
+        bad_at.contains("case.responses[0].at: expected `point` or `cell`, got `edge`"),
+        "{bad_at}"
+    );
+    let misplaced = load(&study("{name: y, regex: 'y (\\S+)', field: wear}"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        misplaced.contains("case.responses[0].field: `field` does not apply to this source"),
+        "{misplaced}"
+    );
+    let pick = load(&study("{name: y, json: out.json, key: y, pick: last}"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        pick.contains("`pick` chooses among the files of a glob"),
+        "{pick}"
+    );
+}

@@ -115,6 +115,10 @@ struct JobColumns<'a> {
     shown: &'a [String],
     /// Whether the `SCHEDULER` column is shown (some job has a scheduler state).
     on_scheduler: bool,
+    /// Decimals of each factor's column, then of each shown response's: enough for
+    /// the column's largest value to show 4 significant digits (a response of 10^-7
+    /// is not `0.00000`).
+    decimals: Vec<usize>,
 }
 
 impl JobColumns<'_> {
@@ -153,10 +157,11 @@ impl JobColumns<'_> {
         if self.on_scheduler {
             row.push(job.scheduler_state.clone().unwrap_or_else(|| "-".into()));
         }
-        row.extend(natural.iter().map(|&v| natural_cell(v)));
-        row.extend(self.shown.iter().map(|name| {
+        let (factors, responses) = self.decimals.split_at(self.factors.len());
+        row.extend(natural.iter().zip(factors).map(|(&v, &d)| fixed(v, d)));
+        row.extend(self.shown.iter().zip(responses).map(|(name, &d)| {
             response(name)
-                .map(response_cell)
+                .map(|v| fixed(v, d))
                 .unwrap_or_else(|| "-".into())
         }));
         let error = match (&job.reused_from, &job.error) {
@@ -176,14 +181,15 @@ impl JobColumns<'_> {
     /// are (`counts`: their states): what [`JobColumns::row`] gives the longest texts
     /// for. The last column (the error) needs no width: a line's end is trimmed.
     fn widths(&self, extents: &JobExtents, counts: &BTreeMap<JobState, usize>) -> Vec<usize> {
-        let widest = |extremes: Option<&Extremes>, cell: fn(f64) -> String| {
+        let widest = |extremes: Option<&Extremes>, decimals: usize| {
             extremes.map_or(0, |e| {
                 e.candidates()
-                    .map(|v| cell(v).chars().count())
+                    .map(|v| fixed(v, decimals).chars().count())
                     .max()
                     .unwrap_or(0)
             })
         };
+        let (factors, responses) = self.decimals.split_at(self.factors.len());
         let mut widths = vec![
             extents.name_chars,
             counts.keys().map(|s| s.as_str().len()).max().unwrap_or(0),
@@ -193,15 +199,67 @@ impl JobColumns<'_> {
         if self.on_scheduler {
             widths.push(extents.scheduler_chars.unwrap_or(0));
         }
-        widths
-            .extend((0..self.factors.len()).map(|k| widest(extents.natural.get(k), natural_cell)));
+        widths.extend(
+            factors
+                .iter()
+                .enumerate()
+                .map(|(k, &d)| widest(extents.natural.get(k), d)),
+        );
         widths.extend(
             self.shown
                 .iter()
-                .map(|name| widest(extents.responses.get(name), response_cell).max(1)),
+                .zip(responses)
+                .map(|(name, &d)| widest(extents.responses.get(name), d).max(1)),
         );
         widths
     }
+
+    /// The decimals of each column from the extremes of its values (`natural` by factor,
+    /// `responses` by name).
+    fn decimals_of(
+        factors: usize,
+        shown: &[String],
+        natural: impl Fn(usize) -> Option<Extremes>,
+        responses: impl Fn(&str) -> Option<Extremes>,
+    ) -> Vec<usize> {
+        (0..factors)
+            .map(|k| decimals(natural(k).as_ref(), NATURAL_DECIMALS))
+            .chain(
+                shown
+                    .iter()
+                    .map(|name| decimals(responses(name).as_ref(), RESPONSE_DECIMALS)),
+            )
+            .collect()
+    }
+}
+
+/// Decimals of a design value in `orch status STUDY`, at least.
+const NATURAL_DECIMALS: usize = 6;
+/// Decimals of a response in `orch status STUDY`, at least.
+const RESPONSE_DECIMALS: usize = 5;
+
+/// Decimals for a column whose values span `extremes`: `least`, or more where its
+/// largest magnitude is small, so that it shows 4 significant digits.
+fn decimals(extremes: Option<&Extremes>, least: usize) -> usize {
+    let largest = extremes
+        .map(|e| {
+            [e.min_finite, e.max_finite]
+                .into_iter()
+                .flatten()
+                .map(f64::abs)
+                .fold(0.0, f64::max)
+        })
+        .unwrap_or(0.0);
+    if largest <= 0.0 || !largest.is_finite() {
+        return least;
+    }
+    let needed = 3 - largest.log10().floor() as i64;
+    (needed.max(least as i64) as usize).min(15)
+}
+
+/// `value` to `decimals` decimals.
+fn fixed(value: f64, decimals: usize) -> String {
+    format!("{value:.decimals$}")
 }
 
 /// `names` sorted, each once.
@@ -210,16 +268,6 @@ fn distinct(names: &[String]) -> Vec<String> {
     names.sort();
     names.dedup();
     names
-}
-
-/// A natural factor value as `orch status STUDY` shows it.
-fn natural_cell(value: f64) -> String {
-    format!("{value:.6}")
-}
-
-/// A response value as `orch status STUDY` shows it.
-fn response_cell(value: f64) -> String {
-    format!("{value:.5}")
 }
 
 impl StudyDetail {
@@ -282,10 +330,27 @@ impl StudyDetail {
     /// The per-job table, showing `responses` (the study's
     /// [`crate::study::Study::shown_responses`]).
     pub fn table(&self, responses: &[String]) -> String {
+        let decimals = JobColumns::decimals_of(
+            self.factors.len(),
+            responses,
+            |k| {
+                Some(Extremes::of(
+                    self.jobs.iter().filter_map(|d| d.natural.get(k).copied()),
+                ))
+            },
+            |name| {
+                Some(Extremes::of(
+                    self.jobs
+                        .iter()
+                        .filter_map(|d| d.responses.get(name).copied()),
+                ))
+            },
+        );
         let columns = JobColumns {
             factors: &self.factors,
             shown: responses,
             on_scheduler: self.jobs.iter().any(|d| d.job.scheduler_state.is_some()),
+            decimals,
         };
         let mut rows = vec![columns.header()];
         rows.extend(self.jobs.iter().map(|detail| {
@@ -521,10 +586,17 @@ pub async fn write_table_paged<W: Write>(
         let fitted = surfaces::fitted_names(&head.rounds);
         head.runs = surfaces::design_runs_named(store, head.study.id, &fitted).await?;
     }
+    let decimals = JobColumns::decimals_of(
+        head.factors.len(),
+        shown,
+        |k| extents.natural.get(k).cloned(),
+        |name| extents.responses.get(name).cloned(),
+    );
     let columns = JobColumns {
         factors: &head.factors,
         shown,
         on_scheduler: extents.scheduler_chars.is_some(),
+        decimals,
     };
     let header = columns.header();
     let mut widths = Vec::new();
@@ -1204,6 +1276,21 @@ fn aligned(row: &[String], widths: &[usize]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_column_of_small_values_shows_four_significant_digits_and_others_keep_theirs() {
+        let column =
+            |values: &[f64], least| decimals(Some(&Extremes::of(values.iter().copied())), least);
+        // Responses of 10^-7 were `0.00000`.
+        let d = column(&[1.2345e-7, 3.5e-8], RESPONSE_DECIMALS);
+        assert_eq!(fixed(1.2345e-7, d), "0.0000001235");
+        // Columns of values from 0.01 up keep their decimals, as every table had them.
+        assert_eq!(column(&[0.09304, 1.28], RESPONSE_DECIMALS), 5);
+        assert_eq!(column(&[0.024, 0.5], NATURAL_DECIMALS), 6);
+        assert_eq!(column(&[-2.5e-5, 0.0], NATURAL_DECIMALS), 8);
+        assert_eq!(column(&[], RESPONSE_DECIMALS), 5);
+        assert_eq!(column(&[f64::NAN, 0.0], RESPONSE_DECIMALS), 5);
+    }
 
     #[test]
     fn only_an_active_study_without_a_live_driver_gets_a_note() {

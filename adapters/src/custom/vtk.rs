@@ -28,6 +28,14 @@ pub struct VtkField {
     pub component: Option<usize>,
 }
 
+impl VtkField {
+    /// True for the array `name` of the data section `here` (none before the first
+    /// `POINT_DATA` or `CELL_DATA`).
+    fn is(&self, name: &str, here: Option<Attribute>) -> bool {
+        name == self.name && here.is_some() && self.at.is_none_or(|a| Some(a) == here)
+    }
+}
+
 /// Where a field lives.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Attribute {
@@ -132,7 +140,7 @@ pub fn for_each_vtk_value<R: BufRead>(
                 if words[0] == "SCALARS" && file.next_is("LOOKUP_TABLE")? {
                     file.line()?;
                 }
-                let wanted = name == field.name && field.at.is_none_or(|a| a == here);
+                let wanted = field.is(name, Some(here));
                 file.values(
                     tuples,
                     components,
@@ -159,10 +167,7 @@ pub fn for_each_vtk_value<R: BufRead>(
                         )));
                     };
                     let kind = parts.get(3).copied().unwrap_or("float");
-                    let here = at.map(|(a, _)| a);
-                    let wanted = parts[0] == field.name
-                        && here.is_some()
-                        && field.at.is_none_or(|a| Some(a) == here);
+                    let wanted = field.is(parts[0], at.map(|(a, _)| a));
                     file.values(
                         tuples,
                         components,

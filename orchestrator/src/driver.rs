@@ -624,10 +624,11 @@ impl<E: Executor> Driver<'_, E> {
     }
 
     /// When the project already holds a succeeded run with `identity` (and the study
-    /// allows reuse), records `job` as that run and returns true: the same deck is
+    /// allows reuse), records `job` as that run ([`Reuse::Done`]): the same deck is
     /// never run twice. The run's files are linked into the job's run directory and
     /// read with this study's parsers (a study that declares other responses gets
-    /// them); a run whose files cannot be linked or read is run again instead.
+    /// them); a run whose files cannot be linked or read is run again instead
+    /// ([`Reuse::RunAgain`]).
     async fn reuse(&mut self, job: &JobRow, identity: &str) -> Result<Reuse, DriverError> {
         if !self.study.reuse {
             return Ok(Reuse::NoSource);

@@ -85,6 +85,33 @@ fn production_sources(dir: &Path) -> Vec<(PathBuf, String)> {
     found
 }
 
+/// The pure crates take bytes and give numbers: no file, process, environment, network
+/// or clock of their own, whatever their dependencies would allow (the caller reads the
+/// files and hands over what they hold).
+#[test]
+fn the_pure_crates_touch_no_file_process_environment_or_network() {
+    let forbidden = [
+        "std::fs",
+        "std::process",
+        "std::env",
+        "std::net",
+        "File::open",
+        "File::create",
+        "SystemTime::now",
+    ];
+    let mut found = Vec::new();
+    for crate_dir in ["dem/src", "granular/src", "metamodel/src"] {
+        for (path, text) in production_sources(&root().join(crate_dir)) {
+            for word in forbidden {
+                if text.contains(word) {
+                    found.push(format!("{} uses {word}", path.display()));
+                }
+            }
+        }
+    }
+    assert!(found.is_empty(), "{found:#?}");
+}
+
 /// Production files under `orchestrator/src` and `adapters/src`, other than `allowed`,
 /// that spell one of `names` as a string literal.
 fn spelled_outside(names: &[&str], allowed: &[PathBuf]) -> Vec<String> {

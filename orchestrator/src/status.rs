@@ -360,18 +360,29 @@ impl StudyDetail {
         }));
         format!(
             "{}{}{}",
-            self.headline(&self.counts()),
+            self.headline(
+                &self.counts(),
+                self.jobs
+                    .iter()
+                    .filter(|d| d.job.reused_from.is_some())
+                    .count()
+            ),
             table(&rows),
             self.tail()
         )
     }
 
-    /// The lines above the job table: the study, its jobs per state (`counts`) and
-    /// the note on a dead driver.
-    fn headline(&self, counts: &BTreeMap<JobState, usize>) -> String {
+    /// The lines above the job table: the study, its jobs per state (`counts`, of the
+    /// succeeded `reused` took an earlier run) and the note on a dead driver.
+    fn headline(&self, counts: &BTreeMap<JobState, usize>, reused: usize) -> String {
         let summary: Vec<String> = counts
             .iter()
-            .map(|(state, n)| format!("{n} {state}"))
+            .map(|(state, n)| match state {
+                JobState::Succeeded if reused > 0 => {
+                    format!("{n} {state} ({reused} reused, not run again)")
+                }
+                _ => format!("{n} {state}"),
+            })
             .collect();
         let note = self
             .driver
@@ -604,7 +615,8 @@ pub async fn write_table_paged<W: Write>(
     for (width, cell) in widths.iter_mut().zip(columns.widths(&extents, &counts)) {
         *width = (*width).max(cell);
     }
-    out.write_all(head.headline(&counts).as_bytes())?;
+    let reused = store.reused_count(head.study.id).await?;
+    out.write_all(head.headline(&counts, reused).as_bytes())?;
     out.write_all(aligned(&header, &widths).as_bytes())?;
     let mut pages = JobPages::with_responses(head.study.id, &distinct(shown));
     while let Some(mut page) = pages.next(store).await? {

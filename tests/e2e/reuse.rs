@@ -60,6 +60,12 @@ fn quickstart_runs_each_deck_once_and_a_resubmission_reuses_every_run() {
         stderr.contains("19 succeeded (3 of them reused identical runs instead of running)"),
         "{stderr}"
     );
+    let table = text(&project.run(&["status", "quickstart"]).stdout);
+    assert!(
+        table.contains("19 jobs: 19 succeeded (3 reused, not run again)")
+            && table.contains("reused quickstart/p00"),
+        "{table}"
+    );
     // Every job that ran has an identity of its own: no two runs are the same deck.
     let mut identities: Vec<&String> = jobs
         .values()

@@ -74,6 +74,12 @@ fn quick_comparison_agrees_and_a_perturbed_native_kernel_is_a_regression() {
         made / 2
     );
     assert!(stderr.contains(&reused), "{reused}:\n{stderr}");
+    // The taken runs bring their rates, not their speed: it was of another moment.
+    let speeds = project.query(
+        "SELECT solver, runs FROM comparison_speeds WHERE comparison_id = (SELECT MAX(id) FROM comparisons) ORDER BY solver",
+    );
+    assert_eq!(speeds[0], ["liggghts", "0"], "{speeds:?}");
+    assert_ne!(speeds[1][1], "0", "{speeds:?}");
     assert_eq!(output.status.code(), Some(1), "{stdout}\n{stderr}");
     let regression = stdout
         .lines()

@@ -13,9 +13,10 @@
 //!
 //! A rendered run whose identity ([`crate::identity`]: its files, the program and its
 //! version) an earlier comparison of the project already made is not run again: its
-//! stored responses, its speed included, are taken. A comparison of unchanged solvers
-//! on an unchanged suite runs nothing; a new build of the native kernel is another
-//! program, so its runs are made.
+//! stored responses are taken, but not its speed, which belongs to the moment it ran
+//! (the speeds and their ratio are of the runs made in this invocation only). A
+//! comparison of unchanged solvers on an unchanged suite runs nothing; a new build of
+//! the native kernel is another program, so its runs are made.
 
 pub mod analysis;
 pub mod history;
@@ -271,8 +272,13 @@ fn run_one(
     let identity = crate::identity::of_run(&spec.dir, &command, "")
         .map_err(|e| format!("cannot read the rendered run: {e}"))?;
     if let Some(values) = known.get(&identity) {
+        // A reused run brings what it measured of the flow, not its speed: speed is of
+        // the moment and the machine it ran on, and the native/reference ratio must
+        // compare runs that shared one machine at one time.
+        let mut values = values.clone();
+        values.retain(|name, _| !name.starts_with("solver_"));
         return Ok(Made {
-            values: values.clone(),
+            values,
             identity,
             reused: true,
         });

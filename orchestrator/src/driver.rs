@@ -1064,6 +1064,13 @@ impl<E: Executor> Driver<'_, E> {
                 self.study.name
             );
         }
+        if !self.uncollected.is_empty() {
+            errln!(
+                "orch: {} jobs had finished but their output was not read yet; `orch resume {}` reads it without running them again",
+                self.uncollected.len(),
+                self.study.name
+            );
+        }
         let actions = decide::on_interrupt(&jobs, &self.budgets);
         self.apply(&jobs.iter().collect::<Vec<_>>(), actions)
             .await?;

@@ -38,8 +38,9 @@ fn a_huge_response_is_streamed_and_thinned_sigterm_stops_orch_while_it_reads_and
     let project = Project::new();
     project.write("deck.sh.tera", HUGE_DECK);
     let file = project.write("huge.yaml", HUGE_STUDY);
-    let mut orch = project
+    let orch = project
         .orch(&["submit", file.to_str().unwrap()])
+        .stderr(std::process::Stdio::piped())
         .spawn()
         .unwrap();
 
@@ -58,7 +59,8 @@ fn a_huge_response_is_streamed_and_thinned_sigterm_stops_orch_while_it_reads_and
         .status()
         .unwrap();
     assert!(kill.success());
-    let exit = orch.wait().unwrap();
+    let output = orch.wait_with_output().unwrap();
+    let exit = output.status;
     let stopped_in = signalled.elapsed();
     eprintln!(
         "orch stopped {:.2} s after SIGTERM",
@@ -68,6 +70,11 @@ fn a_huge_response_is_streamed_and_thinned_sigterm_stops_orch_while_it_reads_and
     assert!(
         stopped_in < Duration::from_secs(3),
         "orch took {stopped_in:?} to stop"
+    );
+    let stderr = text(&output.stderr);
+    assert!(
+        stderr.contains("orch: 1 jobs had finished but their output was not read yet; `orch resume huge` reads it without running them again"),
+        "{stderr}"
     );
     // The run was not read; it is not thrown away either.
     let state = project.query("SELECT state, attempts FROM jobs WHERE name = 'p000r0'");

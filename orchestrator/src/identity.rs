@@ -68,7 +68,7 @@ pub fn of_run(run_dir: &Path, command: &CommandSpec, conditions: &str) -> std::i
     }
     field(&mut hash, b"conditions");
     field(&mut hash, conditions.as_bytes());
-    Ok(hex(&hash.finalize()))
+    Ok(format!("{:x}", hash.finalize()))
 }
 
 /// Adds the content of the file at `path` to `hash`, 64 KiB at a time: a mesh or a
@@ -141,15 +141,6 @@ pub fn link_run(from: &Path, to: &Path) -> std::io::Result<()> {
     Ok(())
 }
 
-/// Lower-case hex of `bytes`.
-fn hex(bytes: &[u8]) -> String {
-    use std::fmt::Write;
-    bytes.iter().fold(String::new(), |mut s, b| {
-        let _ = write!(s, "{b:02x}");
-        s
-    })
-}
-
 /// What a program is, as far as its results go: its resolved path, its file's SHA-256
 /// and its Debian package's version, or `unresolved <name>` for a program not on PATH
 /// (whose launch fails anyway). Kept per process, keyed by path, size and mtime, so a
@@ -168,7 +159,7 @@ pub fn program_fingerprint(program: &str) -> String {
     }
     let mut digest = Sha256::new();
     let content = match hash_file(&mut digest, &path) {
-        Ok(()) => hex(&digest.finalize()),
+        Ok(()) => format!("{:x}", digest.finalize()),
         Err(e) => format!("unreadable ({e})"),
     };
     let package = debian_package(&path).unwrap_or_default();

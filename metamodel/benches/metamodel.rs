@@ -183,6 +183,7 @@ fn main() {
                 ModelChoice::Auto,
                 BasisKind::Legendre,
                 &names,
+                &[],
                 black_box(&x),
                 black_box(&y),
                 &options,

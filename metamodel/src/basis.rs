@@ -3,6 +3,8 @@
 //! `P2(a)`, `P1(a)*P1(f)`). Both span the same space, so fits in either predict the
 //! same; Legendre columns are better conditioned on `[-1, 1]`.
 
+use crate::levels::{is_text, level_of};
+
 /// Which one-dimensional polynomials the terms are products of.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum BasisKind {
@@ -23,18 +25,38 @@ pub struct Basis {
     pub order: u32,
     /// Number of variables.
     pub n_factors: usize,
-    /// Degree of each variable in each term; the first term is the constant.
+    /// Degree of each variable in each term; the first term is the constant. For a
+    /// text factor (see `levels`) the "degree" `e > 0` names its level `e` (0-based):
+    /// the term is 1 at that level and 0 at the others (level 0 is the reference).
     pub terms: Vec<Vec<u32>>,
+    /// Levels of each factor, 0 for a numeric one ([`crate::levels`]); empty when
+    /// every factor is numeric.
+    pub levels: Vec<u32>,
 }
 
 impl Basis {
     /// Every term of total degree at most `order`, constant first, then by degree;
     /// within a degree, pure powers before interactions, in factor order.
     pub fn complete(kind: BasisKind, n_factors: usize, order: u32) -> Basis {
+        Basis::complete_with_levels(kind, n_factors, &[], order)
+    }
+
+    /// [`Basis::complete`] over numeric and text factors (`levels`, see
+    /// [`crate::levels`]): a text factor of `L` levels enters as `L − 1` indicator
+    /// terms of degree one each, so a quadratic basis has each indicator alone, times
+    /// each numeric factor and times each other text factor's indicators, but no
+    /// squares of indicators (an indicator squared is itself).
+    pub fn complete_with_levels(
+        kind: BasisKind,
+        n_factors: usize,
+        levels: &[u32],
+        order: u32,
+    ) -> Basis {
         let mut terms = Vec::new();
         for degree in 0..=order {
             let mut of_degree = Vec::new();
             exponents(
+                levels,
                 n_factors,
                 degree,
                 &mut vec![0; n_factors],
@@ -42,11 +64,17 @@ impl Basis {
                 &mut of_degree,
             );
             // Pure powers (one variable) first, then interactions; stable within.
+            // A text factor's indicators in level order.
             of_degree.sort_by_key(|t: &Vec<u32>| {
-                (
-                    t.iter().filter(|&&e| e > 0).count(),
-                    std::cmp::Reverse(t.clone()),
-                )
+                let key: Vec<u32> = t
+                    .iter()
+                    .enumerate()
+                    .map(|(j, &e)| match is_text(levels, j) && e > 0 {
+                        true => levels[j] - e,
+                        false => e,
+                    })
+                    .collect();
+                (t.iter().filter(|&&e| e > 0).count(), std::cmp::Reverse(key))
             });
             terms.extend(of_degree);
         }
@@ -55,6 +83,7 @@ impl Basis {
             order,
             n_factors,
             terms,
+            levels: levels.to_vec(),
         }
     }
 
@@ -62,17 +91,38 @@ impl Basis {
     /// given order), whose `order` is their highest total degree. Used for reduced models:
     /// the names and rows follow the terms, whatever is missing.
     pub fn from_terms(kind: BasisKind, n_factors: usize, terms: Vec<Vec<u32>>) -> Basis {
-        let order = terms
-            .iter()
-            .map(|t| t.iter().sum::<u32>())
-            .max()
-            .unwrap_or(0);
+        Basis::from_terms_with_levels(kind, n_factors, &[], terms)
+    }
+
+    /// [`Basis::from_terms`] over numeric and text factors (`levels`).
+    pub fn from_terms_with_levels(
+        kind: BasisKind,
+        n_factors: usize,
+        levels: &[u32],
+        terms: Vec<Vec<u32>>,
+    ) -> Basis {
+        let order = terms.iter().map(|t| degree(levels, t)).max().unwrap_or(0);
         Basis {
             kind,
             order,
             n_factors,
             terms,
+            levels: levels.to_vec(),
         }
+    }
+
+    /// True when term `outer` contains term `inner`: a different term that has every
+    /// numeric factor to at least `inner`'s degree and every text indicator `inner`
+    /// has. Pruning keeps a term while a term containing it stays.
+    pub fn contains(&self, outer: &[u32], inner: &[u32]) -> bool {
+        outer != inner
+            && outer.iter().zip(inner).enumerate().all(|(j, (o, i))| {
+                if is_text(&self.levels, j) {
+                    *i == 0 || o == i
+                } else {
+                    o >= i
+                }
+            })
     }
 
     /// Number of terms.
@@ -97,8 +147,10 @@ impl Basis {
         let parts: Vec<String> = term
             .iter()
             .zip(factors)
-            .filter(|(e, _)| **e > 0)
-            .map(|(&e, name)| match (self.kind, e) {
+            .enumerate()
+            .filter(|(_, (e, _))| **e > 0)
+            .map(|(j, (&e, name))| match (self.kind, e) {
+                _ if is_text(&self.levels, j) => format!("{name}[{}]", e + 1),
                 (BasisKind::Monomial, 1) => name.clone(),
                 (BasisKind::Monomial, e) => format!("{name}^{e}"),
                 (BasisKind::Legendre, e) => format!("P{e}({name})"),
@@ -135,7 +187,11 @@ impl Basis {
         for term in &self.terms {
             let mut value = 1.0;
             for (j, &e) in term.iter().enumerate() {
-                if e > 0 {
+                if e > 0 && is_text(&self.levels, j) {
+                    if level_of(x[j], self.levels[j]) != e {
+                        value = 0.0;
+                    }
+                } else if e > 0 {
                     value *= if use_table {
                         table[j][e as usize]
                     } else {
@@ -170,18 +226,49 @@ pub fn legendre(n: u32, x: f64) -> f64 {
     current
 }
 
-/// All exponent vectors of `n` variables summing to `degree`.
-fn exponents(n: usize, degree: u32, current: &mut Vec<u32>, index: usize, out: &mut Vec<Vec<u32>>) {
+/// A term's total degree: its numeric exponents plus one per text indicator.
+fn degree(levels: &[u32], term: &[u32]) -> u32 {
+    term.iter()
+        .enumerate()
+        .map(|(j, &e)| {
+            if is_text(levels, j) {
+                u32::from(e > 0)
+            } else {
+                e
+            }
+        })
+        .sum()
+}
+
+/// All exponent vectors of `n` variables of total [`degree`] `degree`; a text factor
+/// of `L` levels takes 0 or one of its indicators 1..L−1.
+fn exponents(
+    levels: &[u32],
+    n: usize,
+    degree_wanted: u32,
+    current: &mut Vec<u32>,
+    index: usize,
+    out: &mut Vec<Vec<u32>>,
+) {
     if index == n {
-        if current.iter().sum::<u32>() == degree {
+        if degree(levels, current) == degree_wanted {
             out.push(current.clone());
         }
         return;
     }
-    let used: u32 = current[..index].iter().sum();
-    for e in 0..=(degree - used) {
+    let used = degree(levels, &current[..index]);
+    let choices: Vec<u32> = if is_text(levels, index) {
+        if used < degree_wanted {
+            (0..levels[index]).collect()
+        } else {
+            vec![0]
+        }
+    } else {
+        (0..=(degree_wanted - used)).collect()
+    };
+    for e in choices {
         current[index] = e;
-        exponents(n, degree, current, index + 1, out);
+        exponents(levels, n, degree_wanted, current, index + 1, out);
     }
     current[index] = 0;
 }
@@ -203,6 +290,39 @@ mod tests {
         assert_eq!(
             names(BasisKind::Legendre, 2),
             ["1", "P1(a)", "P1(f)", "P2(a)", "P2(f)", "P1(a)*P1(f)"]
+        );
+    }
+
+    #[test]
+    fn a_text_factor_enters_as_indicators_of_degree_one() {
+        // a numeric, m text with 3 levels (0 is the reference).
+        let basis = Basis::complete_with_levels(BasisKind::Legendre, 2, &[0, 3], 2);
+        let names = basis.names(&["a".into(), "m".into()]);
+        assert_eq!(
+            names,
+            [
+                "1",
+                "P1(a)",
+                "m[2]",
+                "m[3]",
+                "P2(a)",
+                "P1(a)*m[2]",
+                "P1(a)*m[3]"
+            ]
+        );
+        assert_eq!(basis.order, 2);
+        // At level 3 (coded 1) only m[3] is on; at level 1 (coded −1) neither.
+        let row = basis.row(&[0.5, 1.0]);
+        assert_eq!(&row[2..4], &[0.0, 1.0]);
+        assert_eq!(row[6], 0.5);
+        let row = basis.row(&[0.5, -1.0]);
+        assert_eq!(&row[2..4], &[0.0, 0.0]);
+        assert_eq!(&row[5..], &[0.0, 0.0]);
+        // Two text factors of two levels: one indicator each and their product.
+        let two = Basis::complete_with_levels(BasisKind::Monomial, 2, &[2, 2], 2);
+        assert_eq!(
+            two.names(&["p".into(), "q".into()]),
+            ["1", "p[2]", "q[2]", "p[2]*q[2]"]
         );
     }
 

@@ -231,6 +231,7 @@ fn montgomery_example_11_1_optimum_is_reproduced() {
     let bounds = BoxBounds {
         lower: vec![77.93, 167.93],
         upper: vec![92.07, 182.07],
+        levels: Vec::new(),
     };
     let optimum = optimise(&|p| fit.predict(p), true, Goal::Maximise, &bounds, 0);
     assert!(three_digits(optimum.value, 80.21), "{optimum:?}");

@@ -11,6 +11,8 @@ use nalgebra::{DMatrix, DVector};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
+use crate::levels;
+
 /// Minimise or maximise.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Goal {
@@ -27,6 +29,10 @@ pub struct BoxBounds {
     pub lower: Vec<f64>,
     /// Upper corner.
     pub upper: Vec<f64>,
+    /// Levels of each factor, 0 for a numeric one ([`crate::levels`]); empty when all
+    /// are numeric. The optimisers try every combination of the text factors' levels
+    /// and search the numeric factors within each.
+    pub levels: Vec<u32>,
 }
 
 impl BoxBounds {
@@ -35,6 +41,27 @@ impl BoxBounds {
         BoxBounds {
             lower: vec![-1.0; k],
             upper: vec![1.0; k],
+            levels: Vec::new(),
+        }
+    }
+
+    /// The same box with text factors of `levels` levels (see [`crate::levels`]).
+    pub fn with_levels(mut self, levels: &[u32]) -> BoxBounds {
+        self.levels = levels.to_vec();
+        self
+    }
+
+    /// True when some factor is text.
+    fn has_text(&self) -> bool {
+        self.levels.iter().any(|&l| l > 0)
+    }
+
+    /// The box of the numeric factors only.
+    fn numeric(&self) -> BoxBounds {
+        BoxBounds {
+            lower: levels::numeric_part(&self.levels, &self.lower),
+            upper: levels::numeric_part(&self.levels, &self.upper),
+            levels: Vec::new(),
         }
     }
 
@@ -183,6 +210,12 @@ pub fn optimise(
     bounds: &BoxBounds,
     seed: u64,
 ) -> Optimum {
+    if bounds.has_text() {
+        return over_levels(bounds, goal, f, &[], |g, numeric, _| {
+            (optimise(g, quadratic, goal, numeric, seed), true)
+        })
+        .0;
+    }
     let sign = match goal {
         Goal::Minimise => 1.0,
         Goal::Maximise => -1.0,
@@ -234,6 +267,11 @@ pub fn optimise_subject_to(
     if constraints.is_empty() {
         return (optimise(f, quadratic, goal, bounds, seed), true);
     }
+    if bounds.has_text() {
+        return over_levels(bounds, goal, f, constraints, |g, numeric, reduced| {
+            optimise_subject_to(g, quadratic, reduced, goal, numeric, seed)
+        });
+    }
     let sign = match goal {
         Goal::Minimise => 1.0,
         Goal::Maximise => -1.0,
@@ -267,6 +305,64 @@ pub fn optimise_subject_to(
         },
         feasible,
     )
+}
+
+/// A function of the numeric factors: another function with the text factors held.
+type Restricted<'a> = Box<dyn Fn(&[f64]) -> f64 + 'a>;
+
+/// The best over every combination of the text factors' levels of `solve` run on
+/// the numeric factors alone (`f` and `constraints` restricted to the combination):
+/// a feasible optimum beats an infeasible one, then the better value for `goal`.
+fn over_levels(
+    bounds: &BoxBounds,
+    goal: Goal,
+    f: &dyn Fn(&[f64]) -> f64,
+    constraints: &[Constraint],
+    solve: impl Fn(&dyn Fn(&[f64]) -> f64, &BoxBounds, &[Constraint]) -> (Optimum, bool),
+) -> (Optimum, bool) {
+    let k = bounds.lower.len();
+    let numeric = bounds.numeric();
+    let mut best: Option<(Optimum, bool)> = None;
+    for combination in levels::combinations(&bounds.levels) {
+        let full = |x: &[f64]| levels::embed(&bounds.levels, k, x, &combination);
+        let g = |x: &[f64]| f(&full(x));
+        let restricted: Vec<Restricted> = constraints
+            .iter()
+            .map(|c| {
+                let full = &full;
+                Box::new(move |x: &[f64]| (c.g)(&full(x))) as Restricted
+            })
+            .collect();
+        let reduced: Vec<Constraint> = constraints
+            .iter()
+            .zip(&restricted)
+            .map(|(c, g)| Constraint {
+                g: g.as_ref(),
+                min: c.min,
+                max: c.max,
+            })
+            .collect();
+        let (found, feasible) = solve(&g, &numeric, &reduced);
+        let candidate = Optimum {
+            x: full(&found.x),
+            ..found
+        };
+        let better = match &best {
+            None => true,
+            Some((incumbent, incumbent_feasible)) => {
+                (feasible && !incumbent_feasible)
+                    || (feasible == *incumbent_feasible
+                        && match goal {
+                            Goal::Minimise => candidate.value < incumbent.value,
+                            Goal::Maximise => candidate.value > incumbent.value,
+                        })
+            }
+        };
+        if better {
+            best = Some((candidate, feasible));
+        }
+    }
+    best.expect("there is at least one combination of levels")
 }
 
 /// Points at which [`magnitude`] looks: the centre, the corners (up to 8 factors) and
@@ -493,6 +589,37 @@ mod tests {
     }
 
     #[test]
+    fn a_text_factor_is_searched_level_by_level() {
+        // x numeric, m text with 3 levels; the surface depends on m through a table,
+        // so no smooth search over m's coordinate could find level 2 (coded 0).
+        let bounds = BoxBounds::coded(2).with_levels(&[0, 3]);
+        let offset = [1.0, -2.0, 0.5];
+        let f = |x: &[f64]| (x[0] - 0.3).powi(2) + offset[levels::level_of(x[1], 3) as usize];
+        for quadratic in [true, false] {
+            let best = optimise(&f, quadratic, Goal::Minimise, &bounds, 1);
+            assert!((best.x[0] - 0.3).abs() < 1e-4, "{best:?}");
+            assert_eq!(best.x[1], 0.0, "{best:?}");
+            assert!((best.value + 2.0).abs() < 1e-8, "{best:?}");
+        }
+        // A constraint that rules level 2 out: the best feasible level is 3.
+        let g = |x: &[f64]| levels::level_of(x[1], 3) as f64;
+        let constraint = Constraint {
+            g: &g,
+            min: None,
+            max: Some(0.5),
+        };
+        let (best, feasible) =
+            optimise_subject_to(&f, true, &[constraint], Goal::Minimise, &bounds, 1);
+        assert!(feasible);
+        assert_eq!(best.x[1], -1.0, "{best:?}");
+        // Only text factors: every combination is tried.
+        let text_only = BoxBounds::coded(1).with_levels(&[3]);
+        let h = |x: &[f64]| offset[levels::level_of(x[0], 3) as usize];
+        let best = optimise(&h, false, Goal::Maximise, &text_only, 0);
+        assert_eq!((best.x.clone(), best.value), (vec![-1.0], 1.0));
+    }
+
+    #[test]
     fn multistart_finds_the_global_minimum_of_a_cubic() {
         // Two local minima in the box; the deeper one is at x ≈ -0.87.
         let f = |x: &[f64]| x[0].powi(4) - 1.5 * x[0] * x[0] + 0.3 * x[0] + x[1] * x[1];
@@ -514,6 +641,7 @@ mod tests {
         let bounds = BoxBounds {
             lower: vec![-1.0, 0.0],
             upper: vec![1.0, 0.0],
+            levels: Vec::new(),
         };
         let (found, feasible) = optimise_subject_to(
             &f,

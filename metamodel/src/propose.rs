@@ -156,6 +156,7 @@ mod tests {
         let fixed = BoxBounds {
             lower: vec![-1.0, 0.3],
             upper: vec![1.0, 0.3],
+            levels: Vec::new(),
         };
         assert!(least_certain(&std, &fixed, &[], 2, 0.5, 2)
             .iter()

@@ -63,7 +63,7 @@ fn drop_one(fit: &Fit, factor_names: &[String], x: &[Vec<f64>], y: &[f64]) -> Op
             !terms
                 .iter()
                 .enumerate()
-                .any(|(j, other)| j != i && contains(other, &terms[i]))
+                .any(|(j, other)| j != i && fit.basis.contains(other, &terms[i]))
         })
         .map(|i| (i, t_values[i].abs()))
         .filter(|&(_, t)| t < critical)
@@ -73,7 +73,12 @@ fn drop_one(fit: &Fit, factor_names: &[String], x: &[Vec<f64>], y: &[f64]) -> Op
     candidates.into_iter().find_map(|(index, _)| {
         let mut kept = terms.clone();
         kept.remove(index);
-        let reduced = Basis::from_terms(fit.basis.kind, fit.basis.n_factors, kept);
+        let reduced = Basis::from_terms_with_levels(
+            fit.basis.kind,
+            fit.basis.n_factors,
+            &fit.basis.levels,
+            kept,
+        );
         let candidate = Fit::new(reduced, factor_names, x, y).ok()?;
         candidate
             .quality
@@ -81,12 +86,6 @@ fn drop_one(fit: &Fit, factor_names: &[String], x: &[Vec<f64>], y: &[f64]) -> Op
             .is_some_and(|press| press <= current_press)
             .then_some(candidate)
     })
-}
-
-/// True when `outer` contains `inner`: a different term with every exponent at least
-/// `inner`'s.
-fn contains(outer: &[u32], inner: &[u32]) -> bool {
-    outer != inner && outer.iter().zip(inner).all(|(o, i)| o >= i)
 }
 
 #[cfg(test)]
@@ -206,11 +205,20 @@ mod tests {
 
     #[test]
     fn containment_is_by_every_exponent() {
+        let numeric = Basis::complete(BasisKind::Monomial, 3, 2);
+        let contains = |outer: &[u32], inner: &[u32]| numeric.contains(outer, inner);
         assert!(contains(&[1, 1, 0], &[1, 0, 0]));
         assert!(contains(&[2, 0, 0], &[1, 0, 0]));
         assert!(!contains(&[1, 0, 0], &[1, 0, 0]));
         assert!(!contains(&[2, 0, 0], &[0, 1, 0]));
         assert!(!contains(&[0, 1, 1], &[1, 0, 0]));
+        // The second factor is text with 3 levels: its indicators 1 and 2 are
+        // different terms, neither inside the other.
+        let mixed = Basis::complete_with_levels(BasisKind::Monomial, 2, &[0, 3], 2);
+        assert!(mixed.contains(&[1, 2], &[0, 2]));
+        assert!(mixed.contains(&[1, 2], &[1, 0]));
+        assert!(!mixed.contains(&[0, 2], &[0, 1]));
+        assert!(!mixed.contains(&[1, 2], &[0, 1]));
     }
 
     proptest! {

@@ -297,7 +297,8 @@ impl Outputs {
 /// [`sobol_indices`] on [`Fit::predict`] instead) or the surface is constant (its
 /// variance below `10^-24` of its coefficients' sum of squares: rounding noise).
 pub fn legendre_sobol(fit: &Fit) -> Option<(Vec<f64>, Vec<f64>)> {
-    if fit.basis.kind != BasisKind::Legendre {
+    // Indicator terms of text factors are not orthogonal Legendre terms.
+    if fit.basis.kind != BasisKind::Legendre || fit.basis.levels.iter().any(|&l| l > 0) {
         return None;
     }
     let k = fit.basis.n_factors;

@@ -23,6 +23,8 @@
 use crate::basis::{Basis, BasisKind};
 use crate::fit::{test_quality, Fit, Interval, Quality, TestQuality};
 use crate::kriging::{Kernel, Kriging, KrigingOptions, Trend};
+use crate::levels::{combination_of, numeric_part};
+use crate::per_level::KrigingPerLevel;
 use crate::propagate::Distribution;
 use crate::prune::prune;
 use crate::sobol::{legendre_sobol, sobol_indices, Estimate, SobolIndices};
@@ -53,6 +55,8 @@ pub enum ModelChoice {
 }
 
 /// A fitted surrogate of one response over coded factors.
+// A round holds one per response: a few hundred bytes each, not worth a box.
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone)]
 pub enum Surrogate {
     /// A least-squares polynomial (complete or pruned).
@@ -64,6 +68,8 @@ pub enum Surrogate {
         /// R², leave-one-out residuals, σ_cross, as for a polynomial.
         quality: Quality,
     },
+    /// One Gaussian-process model per combination of the text factors' levels.
+    KrigingPerLevel(Box<KrigingPerLevel>),
 }
 
 /// Enough to rebuild a surrogate on the same runs without searching again.
@@ -73,6 +79,8 @@ pub enum ModelSpec {
     Polynomial {
         /// Basis kind.
         kind: BasisKind,
+        /// Levels of each factor, 0 for numeric ([`crate::levels`]); empty if none.
+        levels: Vec<u32>,
         /// Exponents of each kept term.
         terms: Vec<Vec<u32>>,
     },
@@ -88,6 +96,14 @@ pub enum ModelSpec {
         process_variance: f64,
         /// Noise (nugget) variance in the response's unit squared.
         noise_variance: f64,
+    },
+    /// One Kriging model per combination of the text factors' levels.
+    KrigingPerLevel {
+        /// Levels of each factor, 0 for numeric.
+        levels: Vec<u32>,
+        /// Each combination (one level per text factor, 0-based) and its model's
+        /// [`ModelSpec::Kriging`].
+        models: Vec<(Vec<u32>, ModelSpec)>,
     },
 }
 
@@ -118,16 +134,19 @@ pub struct Choice {
 }
 
 /// Fits the surrogate `model` asks for to responses `y` at coded points `x`;
-/// `kind` is the polynomials' basis and `kriging` Kriging's settings. The error says
-/// why no candidate could be fitted at all.
+/// `kind` is the polynomials' basis, `levels` the text factors' levels (empty or 0
+/// for numeric factors, see [`crate::levels`]) and `kriging` Kriging's settings. The
+/// error says why no candidate could be fitted at all.
 pub fn choose(
     model: ModelChoice,
     kind: BasisKind,
     factor_names: &[String],
+    levels: &[u32],
     x: &[Vec<f64>],
     y: &[f64],
     kriging: &KrigingOptions,
 ) -> Result<Choice, String> {
+    let has_text = levels.iter().any(|&l| l > 0);
     let k = factor_names.len();
     let mut fitted: Vec<(Candidate, Option<Surrogate>)> = Vec::new();
     let orders: Vec<(u32, bool)> = match model {
@@ -136,7 +155,7 @@ pub fn choose(
         ModelChoice::Kriging => vec![],
     };
     for (order, pruned) in orders {
-        let basis = Basis::complete(kind, k, order);
+        let basis = Basis::complete_with_levels(kind, k, levels, order);
         let full = basis.len();
         let result = if pruned {
             prune(basis, factor_names, x, y)
@@ -169,21 +188,26 @@ pub fn choose(
         });
     }
     if matches!(model, ModelChoice::Auto | ModelChoice::Kriging) {
-        let name = kriging_name(kriging.kernel, kriging.trend);
+        let mut name = kriging_name(kriging.kernel, kriging.trend);
+        if has_text {
+            name.push_str(", one per level");
+        }
         let fit = if y.len() > MAX_KRIGING_RUNS {
             Err(format!(
                 "not fitted: {} runs, more than the {MAX_KRIGING_RUNS} Kriging is fitted to (its cost grows as the cube of the runs)",
                 y.len()
             ))
+        } else if has_text {
+            KrigingPerLevel::fit(levels, x, y, kriging)
+                .map(|m| Surrogate::KrigingPerLevel(Box::new(m)))
         } else {
-            Kriging::fit(x, y, kriging).map_err(|e| e.to_string())
+            Kriging::fit(x, y, kriging)
+                .map(|m| Surrogate::kriging(m, y))
+                .map_err(|e| e.to_string())
         };
         fitted.push(match fit {
-            Ok(fit) => {
-                let surrogate = Surrogate::kriging(fit, y);
-                let Surrogate::Kriging { quality, .. } = &surrogate else {
-                    unreachable!("Surrogate::kriging builds a Kriging surrogate")
-                };
+            Ok(surrogate) => {
+                let quality = surrogate.quality();
                 let candidate = Candidate {
                     name,
                     parameters: surrogate.parameters(),
@@ -332,6 +356,7 @@ impl Surrogate {
         match self {
             Surrogate::Polynomial(fit) => fit.predict(x),
             Surrogate::Kriging { model, .. } => model.predict(x),
+            Surrogate::KrigingPerLevel(model) => model.predict(x),
         }
     }
 
@@ -342,6 +367,7 @@ impl Surrogate {
         match self {
             Surrogate::Polynomial(fit) => fit.confidence_interval(x, 0.95).map(|i| i.std_error),
             Surrogate::Kriging { model, .. } => Some(model.predict_variance(x).max(0.0).sqrt()),
+            Surrogate::KrigingPerLevel(model) => Some(model.mean_std(x)),
         }
     }
 
@@ -365,6 +391,7 @@ impl Surrogate {
                     degrees_of_freedom: f64::INFINITY,
                 })
             }
+            Surrogate::KrigingPerLevel(model) => Some(model.prediction_interval(x, confidence)),
         }
     }
 
@@ -378,6 +405,7 @@ impl Surrogate {
         match self {
             Surrogate::Polynomial(fit) => &fit.quality,
             Surrogate::Kriging { quality, .. } => quality,
+            Surrogate::KrigingPerLevel(model) => model.quality(),
         }
     }
 
@@ -387,6 +415,7 @@ impl Surrogate {
         match self {
             Surrogate::Polynomial(fit) => fit.coefficients.len(),
             Surrogate::Kriging { model, .. } => kriging_parameters(model),
+            Surrogate::KrigingPerLevel(model) => model.parameters(),
         }
     }
 
@@ -394,7 +423,7 @@ impl Surrogate {
     pub fn polynomial(&self) -> Option<&Fit> {
         match self {
             Surrogate::Polynomial(fit) => Some(fit),
-            Surrogate::Kriging { .. } => None,
+            Surrogate::Kriging { .. } | Surrogate::KrigingPerLevel(_) => None,
         }
     }
 
@@ -429,13 +458,14 @@ impl Surrogate {
             return Some((indices, true));
         }
         if let Surrogate::Polynomial(fit) = self {
-            if fit.basis.kind == BasisKind::Legendre {
+            if fit.basis.kind == BasisKind::Legendre && fit.basis.levels.iter().all(|&l| l == 0) {
                 return None; // legendre_sobol found no variance: a constant surface.
             }
         }
         let k = match self {
             Surrogate::Polynomial(fit) => fit.basis.n_factors,
             Surrogate::Kriging { model, .. } => model.length_scales().len(),
+            Surrogate::KrigingPerLevel(model) => model.levels().len(),
         };
         let uniform = Distribution::Uniform {
             low: -1.0,
@@ -452,14 +482,17 @@ impl Surrogate {
         match self {
             Surrogate::Polynomial(fit) => ModelSpec::Polynomial {
                 kind: fit.basis.kind,
+                levels: fit.basis.levels.clone(),
                 terms: fit.basis.terms.clone(),
             },
-            Surrogate::Kriging { model, .. } => ModelSpec::Kriging {
-                kernel: model.kernel(),
-                trend: model.trend(),
-                length_scales: model.length_scales().to_vec(),
-                process_variance: model.process_variance(),
-                noise_variance: model.noise_variance(),
+            Surrogate::Kriging { model, .. } => kriging_spec(model),
+            Surrogate::KrigingPerLevel(model) => ModelSpec::KrigingPerLevel {
+                levels: model.levels().to_vec(),
+                models: model
+                    .models()
+                    .iter()
+                    .map(|(c, m)| (c.clone(), kriging_spec(m)))
+                    .collect(),
             },
         }
     }
@@ -472,8 +505,13 @@ impl Surrogate {
         y: &[f64],
     ) -> Result<Surrogate, String> {
         match spec {
-            ModelSpec::Polynomial { kind, terms } => {
-                let basis = Basis::from_terms(*kind, factor_names.len(), terms.clone());
+            ModelSpec::Polynomial {
+                kind,
+                levels,
+                terms,
+            } => {
+                let basis =
+                    Basis::from_terms_with_levels(*kind, factor_names.len(), levels, terms.clone());
                 Fit::new(basis, factor_names, x, y)
                     .map(Surrogate::Polynomial)
                     .map_err(|e| e.to_string())
@@ -495,7 +533,40 @@ impl Surrogate {
             )
             .map(|model| Surrogate::kriging(model, y))
             .map_err(|e| e.to_string()),
+            ModelSpec::KrigingPerLevel { levels, models } => {
+                // Each combination's hyperparameters, carried by a model fitted to its
+                // own runs with them.
+                let combination_runs = |c: &[u32]| -> (Vec<Vec<f64>>, Vec<f64>) {
+                    x.iter()
+                        .zip(y)
+                        .filter(|(p, _)| combination_of(levels, p) == c)
+                        .map(|(p, v)| (numeric_part(levels, p), *v))
+                        .unzip()
+                };
+                let mut carriers = Vec::new();
+                for (combination, spec) in models {
+                    let (xs, ys) = combination_runs(combination);
+                    let Surrogate::Kriging { model, .. } =
+                        Surrogate::rebuild(spec, factor_names, &xs, &ys)?
+                    else {
+                        return Err("a per-level model must be Kriging".into());
+                    };
+                    carriers.push((combination.clone(), *model));
+                }
+                KrigingPerLevel::with_hyperparameters(levels, &carriers, x, y)
+                    .map(|m| Surrogate::KrigingPerLevel(Box::new(m)))
+            }
         }
+    }
+}
+
+fn kriging_spec(model: &Kriging) -> ModelSpec {
+    ModelSpec::Kriging {
+        kernel: model.kernel(),
+        trend: model.trend(),
+        length_scales: model.length_scales().to_vec(),
+        process_variance: model.process_variance(),
+        noise_variance: model.noise_variance(),
     }
 }
 
@@ -541,6 +612,7 @@ mod tests {
             ModelChoice::Auto,
             BasisKind::Legendre,
             &names(1),
+            &[],
             &x,
             &y,
             &KrigingOptions::default(),
@@ -556,6 +628,7 @@ mod tests {
             ModelChoice::Kriging,
             BasisKind::Legendre,
             &names(1),
+            &[],
             &x,
             &y,
             &KrigingOptions::default(),
@@ -580,6 +653,7 @@ mod tests {
             ModelChoice::Auto,
             BasisKind::Legendre,
             &names(2),
+            &[],
             &x,
             &y,
             &KrigingOptions::default(),
@@ -602,6 +676,7 @@ mod tests {
             ModelChoice::Auto,
             BasisKind::Legendre,
             &names(2),
+            &[],
             &x,
             &y,
             &KrigingOptions::default(),
@@ -627,6 +702,7 @@ mod tests {
             ModelChoice::Polynomial { order: 2 },
             BasisKind::Monomial,
             &names(2),
+            &[],
             &x,
             &y,
             &KrigingOptions::default(),
@@ -648,6 +724,7 @@ mod tests {
             ModelChoice::Kriging,
             BasisKind::Legendre,
             &names(2),
+            &[],
             &x,
             &y,
             &KrigingOptions::default(),
@@ -671,6 +748,7 @@ mod tests {
             ModelChoice::Polynomial { order: 2 },
             BasisKind::Legendre,
             &names(2),
+            &[],
             &x,
             &y,
             &KrigingOptions::default(),

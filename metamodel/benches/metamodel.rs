@@ -195,6 +195,7 @@ fn main() {
         ModelChoice::Auto,
         BasisKind::Legendre,
         &names,
+        &[],
         &x,
         &y,
         &options,

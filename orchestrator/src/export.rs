@@ -307,6 +307,8 @@ pub struct RunRows {
     names: Vec<String>,
     /// The study's `fixed:` values, the same in every row.
     fixed: Vec<Cell>,
+    /// The study's factors: a text factor's column holds its level's text.
+    factors: Vec<crate::store::FactorRow>,
     page: JobPage,
 }
 
@@ -426,6 +428,7 @@ impl RunRows {
             headers,
             names,
             fixed,
+            factors,
             page,
         })
     }
@@ -458,12 +461,12 @@ impl RunRows {
             job.identity.clone().map_or(Cell::Empty, Cell::Text),
             job.reused_from.clone().map_or(Cell::Empty, Cell::Text),
         ];
-        cells.extend(
-            point
-                .natural
-                .iter()
-                .map(|v| Cell::Real(without_round_off(*v))),
-        );
+        cells.extend(point.natural.iter().zip(&self.factors).map(|(v, factor)| {
+            match factor.level_text(*v).filter(|_| factor.levels.is_some()) {
+                Some(text) => Cell::Text(text),
+                None => Cell::Real(without_round_off(*v)),
+            }
+        }));
         cells.extend(self.fixed.iter().cloned());
         cells.extend(
             self.names

@@ -175,6 +175,7 @@ async fn analyse(
             study.metamodel.model,
             study.metamodel.basis,
             &names,
+            &study.levels(),
             x,
             y,
             &options,
@@ -237,12 +238,7 @@ async fn analyse(
     let inputs = Inputs::of(study, &ranges);
     let found = optimum::find(study, &surface, &inputs, &ranges);
     let optimum = found.optimum;
-    let natural: Vec<f64> = optimum
-        .x
-        .iter()
-        .zip(&ranges)
-        .map(|(c, r)| r.to_natural(*c))
-        .collect();
+    let natural = study.point(optimum.x.clone(), &ranges).natural;
     let objective_name = objective.name();
     let (spread, total) = surface.spread_at(study, &optimum.x, &ranges);
     if let (Some(spread), Some(u)) = (spread, &study.uncertainty) {

@@ -130,11 +130,10 @@ impl JobColumns<'_> {
         if self.on_scheduler {
             header.push("SCHEDULER".into());
         }
-        header.extend(
-            self.factors
-                .iter()
-                .map(|f| format!("{} [{}]", f.name, f.unit)),
-        );
+        header.extend(self.factors.iter().map(|f| match f.levels {
+            Some(_) => f.name.clone(),
+            None => format!("{} [{}]", f.name, f.unit),
+        }));
         header.extend(self.shown.iter().cloned());
         header.push("ERROR".into());
         header
@@ -158,7 +157,13 @@ impl JobColumns<'_> {
             row.push(job.scheduler_state.clone().unwrap_or_else(|| "-".into()));
         }
         let (factors, responses) = self.decimals.split_at(self.factors.len());
-        row.extend(natural.iter().zip(factors).map(|(&v, &d)| fixed(v, d)));
+        row.extend(
+            natural
+                .iter()
+                .zip(factors)
+                .zip(self.factors)
+                .map(|((&v, &d), factor)| factor.show(v, |v| fixed(v, d))),
+        );
         row.extend(self.shown.iter().zip(responses).map(|(name, &d)| {
             response(name)
                 .map(|v| fixed(v, d))
@@ -202,8 +207,17 @@ impl JobColumns<'_> {
         widths.extend(
             factors
                 .iter()
+                .zip(self.factors)
                 .enumerate()
-                .map(|(k, &d)| widest(extents.natural.get(k), d)),
+                .map(|(k, (&d, factor))| match factor.levels.is_some() {
+                    true => factor
+                        .levels()
+                        .iter()
+                        .map(|l| l.chars().count())
+                        .max()
+                        .unwrap_or(0),
+                    false => widest(extents.natural.get(k), d),
+                }),
         );
         widths.extend(
             self.shown
@@ -421,7 +435,7 @@ impl StudyDetail {
             "rounds": self.rounds_json(&names),
             "noise_design": self.noise_json(),
             "factors": self.factors_json(),
-            "jobs": self.jobs.iter().map(|d| job_json(d, &names)).collect::<Vec<_>>(),
+            "jobs": self.jobs.iter().map(|d| job_json(d, &self.factors)).collect::<Vec<_>>(),
         })
     }
 
@@ -481,13 +495,27 @@ fn factors_json(factors: &[FactorRow]) -> Value {
     Value::Array(
         factors
             .iter()
-            .map(|f| json!({"name": f.name, "min": f.min, "max": f.max, "unit": f.unit}))
+            .map(|f| match f.levels.is_some() {
+                true => json!({"name": f.name, "levels": f.levels()}),
+                false => json!({"name": f.name, "min": f.min, "max": f.max, "unit": f.unit}),
+            })
             .collect(),
     )
 }
 
 /// One job of `orch status --json`.
-fn job_json(d: &JobDetail, names: &[&str]) -> Value {
+fn job_json(d: &JobDetail, factors: &[FactorRow]) -> Value {
+    let names: Vec<&str> = factors.iter().map(|f| f.name.as_str()).collect();
+    let natural: BTreeMap<&str, Value> = factors
+        .iter()
+        .zip(&d.natural)
+        .map(
+            |(f, v)| match f.level_text(*v).filter(|_| f.levels.is_some()) {
+                Some(text) => (f.name.as_str(), json!(text)),
+                None => (f.name.as_str(), json!(v)),
+            },
+        )
+        .collect();
     json!({
         "name": d.job.name,
         "id": d.job.id,
@@ -501,8 +529,8 @@ fn job_json(d: &JobDetail, names: &[&str]) -> Value {
         "seed": d.job.seed,
         "identity": d.job.identity,
         "reused_from": d.job.reused_from,
-        "coded": by_factor(names, &d.coded),
-        "factors": by_factor(names, &d.natural),
+        "coded": by_factor(&names, &d.coded),
+        "factors": natural,
         "responses": d.responses,
         "exit_code": d.job.exit_code,
         "error": d.job.error,
@@ -518,7 +546,7 @@ fn job_json(d: &JobDetail, names: &[&str]) -> Value {
 /// printed pretty on its own is placed at a depth by indenting its lines.
 struct JsonWriter<'a, W> {
     out: W,
-    names: Vec<&'a str>,
+    factors: &'a [FactorRow],
     counts: BTreeMap<JobState, usize>,
 }
 
@@ -532,7 +560,7 @@ impl<'a, W: Write> JsonWriter<'a, W> {
         )?;
         Ok(JsonWriter {
             out,
-            names: factors.iter().map(|f| f.name.as_str()).collect(),
+            factors,
             counts: BTreeMap::new(),
         })
     }
@@ -541,7 +569,7 @@ impl<'a, W: Write> JsonWriter<'a, W> {
     fn job(&mut self, detail: &JobDetail) -> io::Result<()> {
         let separator = if self.counts.is_empty() { "\n" } else { ",\n" };
         *self.counts.entry(detail.job.state).or_insert(0) += 1;
-        let job = indented(&job_json(detail, &self.names), 4);
+        let job = indented(&job_json(detail, self.factors), 4);
         write!(self.out, "{separator}    {job}")
     }
 
@@ -553,7 +581,7 @@ impl<'a, W: Write> JsonWriter<'a, W> {
             self.out,
             "{close},\n  \"noise_design\": {},\n  \"rounds\": {},\n  \"schema\": {JSON_SCHEMA},\n  \"study\": {}\n}}",
             indented(&head.noise_json(), 2),
-            indented(&head.rounds_json(&self.names), 2),
+            indented(&head.rounds_json(&head.factor_names()), 2),
             indented(&head.study_json_counted(project_dir, &self.counts), 2),
         )?;
         Ok(self.out)
@@ -879,10 +907,13 @@ pub fn rounds_summary(
     let mut out = String::new();
     for round in rounds {
         let round_runs: &[Run] = runs.get(&round.round).map(Vec::as_slice).unwrap_or(&[]);
-        let boxed: Vec<String> = names
+        let boxed: Vec<String> = factors
             .iter()
             .zip(&round.ranges)
-            .map(|(n, r)| format!("{n} [{:.6}, {:.6}]", r.min, r.max))
+            .map(|(f, r)| match f.levels.is_some() {
+                true => format!("{} {{{}}}", f.name, f.levels().join(", ")),
+                false => format!("{} [{:.6}, {:.6}]", f.name, r.min, r.max),
+            })
             .collect();
         out.push_str(&format!(
             "round {}: box {}\n",
@@ -936,10 +967,10 @@ pub fn rounds_summary(
         }
         out.push_str(&front_lines(round, &names));
         if let Some((response, goal, value, natural)) = &round.optimum {
-            let at: Vec<String> = names
+            let at: Vec<String> = factors
                 .iter()
                 .zip(natural)
-                .map(|(n, v)| format!("{n} = {v:.6}"))
+                .map(|(f, v)| format!("{} = {}", f.name, f.show(*v, |v| format!("{v:.6}"))))
                 .collect();
             let warnings = verdict::optimum_warnings(round, factors, round_runs);
             let answer = !warnings
@@ -1376,6 +1407,7 @@ mod tests {
             min: 0.02,
             max: 0.028,
             unit: "m".into(),
+            levels: None,
         }];
         let round = StoredRound {
             round: 0,
@@ -1446,6 +1478,7 @@ mod tests {
             min: 0.0,
             max: 1.0,
             unit: "m".into(),
+            levels: None,
         }];
         let runs = BTreeMap::from([(0, vec![run(-1.0, 1.0), run(1.0, 2.0)])]);
         let text = rounds_summary(&[round], &factors, &runs);
@@ -1554,6 +1587,7 @@ mod tests {
                 min: 0.02,
                 max: 0.028,
                 unit: "m".into(),
+                levels: None,
             }],
             jobs: (1..=n_jobs).map(job).collect(),
             rounds: vec![StoredRound::default()],

@@ -239,10 +239,19 @@ pub fn basis_kind(name: &str) -> Option<BasisKind> {
 
 /// A surrogate's spec as the store keeps it (JSON).
 pub fn spec_json(spec: &ModelSpec) -> String {
-    let value = match spec {
-        ModelSpec::Polynomial { kind, terms } => json!({
+    spec_value(spec).to_string()
+}
+
+fn spec_value(spec: &ModelSpec) -> serde_json::Value {
+    match spec {
+        ModelSpec::Polynomial {
+            kind,
+            levels,
+            terms,
+        } => json!({
             "model": "polynomial",
             "basis": match kind { BasisKind::Legendre => "legendre", BasisKind::Monomial => "monomial" },
+            "levels": levels,
             "terms": terms,
         }),
         ModelSpec::Kriging {
@@ -259,28 +268,45 @@ pub fn spec_json(spec: &ModelSpec) -> String {
             "process_variance": process_variance,
             "noise_variance": noise_variance,
         }),
-    };
-    value.to_string()
+        ModelSpec::KrigingPerLevel { levels, models } => json!({
+            "model": "kriging_per_level",
+            "levels": levels,
+            "models": models
+                .iter()
+                .map(|(combination, spec)| json!({"levels": combination, "spec": spec_value(spec)}))
+                .collect::<Vec<_>>(),
+        }),
+    }
 }
 
 /// The spec [`spec_json`] wrote; `None` for text it did not write.
 pub fn spec_from_json(text: &str) -> Option<ModelSpec> {
-    let value: serde_json::Value = serde_json::from_str(text).ok()?;
+    spec_from_value(&serde_json::from_str(text).ok()?)
+}
+
+fn spec_from_value(value: &serde_json::Value) -> Option<ModelSpec> {
     let numbers = |key: &str| -> Option<Vec<f64>> {
         value[key].as_array()?.iter().map(|v| v.as_f64()).collect()
+    };
+    let small = |v: &serde_json::Value| -> Option<Vec<u32>> {
+        v.as_array()?
+            .iter()
+            .map(|e| e.as_u64().and_then(|e| u32::try_from(e).ok()))
+            .collect()
+    };
+    // Specs stored before text factors have no levels: every factor numeric.
+    let levels = || match &value["levels"] {
+        serde_json::Value::Null => Some(Vec::new()),
+        other => small(other),
     };
     match value["model"].as_str()? {
         "polynomial" => Some(ModelSpec::Polynomial {
             kind: basis_kind(value["basis"].as_str()?)?,
+            levels: levels()?,
             terms: value["terms"]
                 .as_array()?
                 .iter()
-                .map(|term| {
-                    term.as_array()?
-                        .iter()
-                        .map(|e| e.as_u64().and_then(|e| u32::try_from(e).ok()))
-                        .collect()
-                })
+                .map(small)
                 .collect::<Option<_>>()?,
         }),
         "kriging" => Some(ModelSpec::Kriging {
@@ -298,6 +324,14 @@ pub fn spec_from_json(text: &str) -> Option<ModelSpec> {
             process_variance: value["process_variance"].as_f64()?,
             noise_variance: value["noise_variance"].as_f64()?,
         }),
+        "kriging_per_level" => Some(ModelSpec::KrigingPerLevel {
+            levels: levels()?,
+            models: value["models"]
+                .as_array()?
+                .iter()
+                .map(|m| Some((small(&m["levels"])?, spec_from_value(&m["spec"])?)))
+                .collect::<Option<_>>()?,
+        }),
         _ => None,
     }
 }
@@ -313,6 +347,7 @@ pub fn refit(fit: &StoredFit, factor_names: &[String], observed: &Observed) -> O
         Some(text) => spec_from_json(text)?,
         None => ModelSpec::Polynomial {
             kind: basis_kind(&fit.basis)?,
+            levels: Vec::new(),
             terms: Basis::complete(
                 basis_kind(&fit.basis)?,
                 factor_names.len(),

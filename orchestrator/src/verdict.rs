@@ -183,7 +183,12 @@ pub fn optimum_warnings(round: &StoredRound, factors: &[FactorRow], runs: &[Run]
 /// file, saying which way to widen its range.
 pub fn limit_faces(natural: &[f64], factors: &[FactorRow]) -> Vec<String> {
     let mut out = Vec::new();
-    for (value, f) in natural.iter().zip(factors) {
+    // A text factor has no beyond: its first and last levels are not limits.
+    for (value, f) in natural
+        .iter()
+        .zip(factors)
+        .filter(|(_, f)| f.levels.is_none())
+    {
         let tolerance = 1e-9 * (f.max - f.min).abs().max(f64::MIN_POSITIVE);
         let side = if (value - f.min).abs() <= tolerance {
             Some(("lower", "below", f.min))
@@ -288,12 +293,14 @@ mod tests {
                 min: 0.02,
                 max: 0.028,
                 unit: "m".into(),
+                levels: None,
             },
             FactorRow {
                 name: "amplitude".into(),
                 min: 0.0,
                 max: 0.0008,
                 unit: "m".into(),
+                levels: None,
             },
         ]
     }

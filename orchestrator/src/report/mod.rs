@@ -192,7 +192,7 @@ fn front_section(data: &Data<'_>, round: &StoredRound) -> String {
         .map(|(i, p)| {
             let mut row = vec![i.to_string()];
             row.extend(p.objectives.iter().map(|o| number(o.2)));
-            row.extend(p.natural.iter().map(|v| number(*v)));
+            row.extend(shown_values(&data.factors, &p.natural));
             row.push(if p.compromise {
                 "compromise".into()
             } else {
@@ -240,7 +240,7 @@ async fn design_table(store: &Store, data: &Data<'_>, round: i64) -> Result<Stri
                     None => job.state.to_string(),
                 }),
             ];
-            row.extend(point.natural.iter().map(|v| number(*v)));
+            row.extend(shown_values(&data.factors, &point.natural));
             row
         })
         .collect();
@@ -261,8 +261,14 @@ fn trust_region(data: &Data<'_>, round: &StoredRound) -> String {
         .factors
         .iter()
         .zip(&round.ranges)
-        .map(|(f, r)| {
-            vec![
+        .map(|(f, r)| match f.levels.is_some() {
+            true => vec![
+                escape(&f.name),
+                "every level".into(),
+                String::new(),
+                escape(&f.levels().join(", ")),
+            ],
+            false => vec![
                 escape(&f.name),
                 with_unit(r.min, &f.unit),
                 with_unit(r.max, &f.unit),
@@ -271,7 +277,7 @@ fn trust_region(data: &Data<'_>, round: &StoredRound) -> String {
                     with_unit(f.min, &f.unit),
                     with_unit(f.max, &f.unit)
                 ),
-            ]
+            ],
         })
         .collect();
     out.push_str(&table(&headers, &rows));
@@ -280,7 +286,8 @@ fn trust_region(data: &Data<'_>, round: &StoredRound) -> String {
         .iter()
         .filter(|r| r.round <= round.round && r.ranges.len() == data.factors.len())
         .collect();
-    if data.factors.len() == 2 {
+    let numeric = data.factors.iter().all(|f| f.levels.is_none());
+    if data.factors.len() == 2 && numeric {
         let f = &data.factors;
         let boxes: Vec<_> = so_far
             .iter()
@@ -309,7 +316,11 @@ fn trust_region(data: &Data<'_>, round: &StoredRound) -> String {
             "Each round's box (filled) inside the study file's limits (black), and each round's optimum (cross).",
         ));
     } else {
+        // A text factor keeps every level in every round: no range to draw.
         for (i, f) in data.factors.iter().enumerate() {
+            if f.levels.is_some() {
+                continue;
+            }
             let bars: Vec<_> = so_far
                 .iter()
                 .map(|r| {
@@ -327,6 +338,17 @@ fn trust_region(data: &Data<'_>, round: &StoredRound) -> String {
         }
     }
     out
+}
+
+/// A point's natural values as table cells: a text factor's level, else the number.
+fn shown_values<'a>(
+    factors: &'a [FactorRow],
+    natural: &'a [f64],
+) -> impl Iterator<Item = String> + 'a {
+    factors
+        .iter()
+        .zip(natural)
+        .map(|(f, v)| escape(&f.show(*v, number)))
 }
 
 /// The optimum's natural values, when the round has one with a value per factor.
@@ -530,8 +552,10 @@ fn surface_figures(
     let optimum = optimum_point(data, round);
     let z_label = svg_label(&fit.response, unit);
     let f = &data.factors;
+    let text: Vec<u32> = f.iter().map(|f| f.levels().len() as u32).collect();
+    let has_text = text.iter().any(|&l| l > 0);
     match f.len() {
-        2 => {
+        2 if !has_text => {
             let points: Vec<(f64, f64)> = observed.natural.iter().map(|p| (p[0], p[1])).collect();
             let svg = plots::heatmap(
                 &format!("Response surface: {}", fit.response),
@@ -553,13 +577,38 @@ fn surface_figures(
             let through =
                 optimum.unwrap_or_else(|| ranges.iter().map(|r| 0.5 * (r.min + r.max)).collect());
             let mut out = String::new();
+            // With text factors, one curve per combination of their levels.
+            let combinations = orch_metamodel::levels::combinations(&text);
+            let text_factors: Vec<usize> = (0..f.len()).filter(|&j| text[j] > 0).collect();
             for (i, factor) in f.iter().enumerate() {
-                let curve: Vec<(f64, f64)> = (0..=60)
-                    .map(|s| {
-                        let x = ranges[i].min + (ranges[i].max - ranges[i].min) * s as f64 / 60.0;
-                        let mut point = through.clone();
-                        point[i] = x;
-                        (x, surface.predict(&coded(&point)))
+                if text[i] > 0 {
+                    continue;
+                }
+                let curves: Vec<(String, Vec<(f64, f64)>)> = combinations
+                    .iter()
+                    .map(|combination| {
+                        let mut at = through.clone();
+                        for (&j, &level) in text_factors.iter().zip(combination) {
+                            at[j] = level as f64;
+                        }
+                        let curve = (0..=60)
+                            .map(|s| {
+                                let x = ranges[i].min
+                                    + (ranges[i].max - ranges[i].min) * s as f64 / 60.0;
+                                let mut point = at.clone();
+                                point[i] = x;
+                                (x, surface.predict(&coded(&point)))
+                            })
+                            .collect();
+                        let name = match has_text {
+                            false => fit.response.clone(),
+                            true => text_factors
+                                .iter()
+                                .map(|&j| format!("{} = {}", f[j].name, f[j].show(at[j], number)))
+                                .collect::<Vec<_>>()
+                                .join(", "),
+                        };
+                        (name, curve)
                     })
                     .collect();
                 let points: Vec<(f64, f64)> = if f.len() == 1 {
@@ -576,7 +625,7 @@ fn surface_figures(
                     &format!("Response surface: {} along {}", fit.response, factor.name),
                     &svg_label(&factor.name, &factor.unit),
                     &z_label,
-                    &[(fit.response.clone(), curve)],
+                    &curves,
                     &points,
                     Some(through[i]),
                     if f.len() == 1 {
@@ -589,6 +638,8 @@ fn surface_figures(
                     &svg,
                     if f.len() == 1 {
                         "The fitted curve with the observed runs (dots); red line: the optimum or the centre."
+                    } else if has_text {
+                        "A slice of the surface along one factor, one curve per level of the text factors, the other numbers held at the optimum (or the box's centre); red line: that point."
                     } else {
                         "A slice of the surface along one factor, the others held at the optimum (or the box's centre); red line: that point."
                     },
@@ -681,13 +732,19 @@ fn optimum_section(data: &Data<'_>, round: &StoredRound) -> String {
         .iter()
         .zip(natural)
         .zip(&round.ranges)
-        .map(|((f, v), r)| {
-            vec![
+        .map(|((f, v), r)| match f.levels.is_some() {
+            true => vec![
+                escape(&f.name),
+                escape(&f.show(*v, number)),
+                "every level".into(),
+                escape(&f.levels().join(", ")),
+            ],
+            false => vec![
                 escape(&f.name),
                 with_unit(*v, &f.unit),
                 format!("[{}, {}]", number(r.min), number(r.max)),
                 format!("[{}, {}]", number(f.min), number(f.max)),
-            ]
+            ],
         })
         .collect();
     out.push_str(&table(&headers, &rows));

@@ -4,7 +4,7 @@ use std::collections::HashMap;
 
 use orch_metamodel::propose::{least_certain, shrink_around};
 use orch_metamodel::surrogate::Surrogate;
-use orch_metamodel::{propose_batch, Design, FactorRange, Goal, KrigingOptions, Optimum};
+use orch_metamodel::{propose_batch, FactorRange, Goal, KrigingOptions, Optimum};
 
 use super::objective::{held_at_mean, Inputs, ObjectiveSurface};
 use super::Observed;
@@ -49,7 +49,9 @@ pub(crate) fn propose(
                 };
                 Some((response, model, goal))
             }
-            Surrogate::Polynomial(_) => None,
+            // A polynomial's next box is the design again around the optimum; a
+            // per-level Kriging has no one model to propose a batch from.
+            Surrogate::Polynomial(_) | Surrogate::KrigingPerLevel(_) => None,
         },
         _ => None,
     };
@@ -67,16 +69,23 @@ pub(crate) fn propose(
         }
         None => {
             let limits: Vec<FactorRange> = study.factors.iter().map(|f| f.range).collect();
-            let mut next = shrink_around(natural, ranges, &limits, study.metamodel.shrink);
+            let mut next = study.text_kept_whole(shrink_around(
+                natural,
+                ranges,
+                &limits,
+                study.metamodel.shrink,
+            ));
             for (index, _) in &inputs.uncertain {
                 next[*index] = ranges[*index];
             }
-            let design = Design::build(&study.design, k).expect("the design was built for round 0");
+            let design = study
+                .coded_design(&study.design)
+                .expect("the design was built for round 0");
             let how = format!(
                 "a box {} times as wide around the optimum",
                 study.metamodel.shrink
             );
-            (next, design.points, how)
+            (next, design, how)
         }
     };
     // Where the current surrogate is least certain, in the next box's coded units.
@@ -103,7 +112,7 @@ pub(crate) fn propose(
     coded.extend(probes);
     let points = coded
         .into_iter()
-        .map(|coded| DesignPoint::in_box(coded, &next_ranges))
+        .map(|coded| study.point(coded, &next_ranges))
         .collect();
     NextRound {
         ranges: next_ranges,

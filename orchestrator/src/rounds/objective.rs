@@ -121,7 +121,7 @@ impl Inputs {
             .flat_map(|u| u.noise.iter().flat_map(|n| n.tolerances.iter().copied()))
             .collect();
         Inputs {
-            bounds: held_at_mean(&uncertain, ranges),
+            bounds: held_at_mean(&uncertain, ranges).with_levels(&study.levels()),
             uncertain,
             tolerances,
         }

@@ -28,8 +28,8 @@ use std::collections::HashMap;
 use orch_metamodel::propose::{converged, shrink_around};
 use orch_metamodel::surrogate::Surrogate;
 use orch_metamodel::{
-    pareto_front, propagate, propagate_with_error, Design, Distribution, FactorRange, Goal,
-    Optimum, ParetoPoint,
+    pareto_front, propagate, propagate_with_error, Distribution, FactorRange, Goal, Optimum,
+    ParetoPoint,
 };
 
 use crate::store::{Decision, FrontPoint, RoundRecord};
@@ -90,6 +90,7 @@ pub fn front_samples(
     ranges: &[FactorRange],
     count: usize,
     taken: &[DesignPoint],
+    levels: &[u32],
 ) -> Vec<DesignPoint> {
     let inside: Vec<Vec<f64>> = front
         .iter()
@@ -122,7 +123,7 @@ pub fn front_samples(
     };
     picked
         .into_iter()
-        .map(|i| DesignPoint::in_box(inside[i].clone(), ranges))
+        .map(|i| DesignPoint::in_box(inside[i].clone(), ranges, levels))
         .collect()
 }
 
@@ -138,15 +139,8 @@ pub(super) fn analyse_front(
     previous: Option<f64>,
     record: &mut RoundRecord,
 ) {
-    let k = study.factors.len();
     let limits: Vec<FactorRange> = study.factors.iter().map(|f| f.range).collect();
-    let to_natural = |coded: &[f64]| -> Vec<f64> {
-        coded
-            .iter()
-            .zip(ranges)
-            .map(|(c, r)| r.to_natural(*c))
-            .collect()
-    };
+    let to_natural = |coded: &[f64]| -> Vec<f64> { study.point(coded.to_vec(), ranges).natural };
 
     // Uncertain factors are held at their mean, as for a single objective.
     let super::Inputs {
@@ -274,21 +268,28 @@ pub(super) fn analyse_front(
         );
     } else {
         // Design factors zoom in around the compromise point; uncertain ones keep their range.
-        let mut next_ranges = shrink_around(&natural, ranges, &limits, study.metamodel.shrink);
+        let mut next_ranges = study.text_kept_whole(shrink_around(
+            &natural,
+            ranges,
+            &limits,
+            study.metamodel.shrink,
+        ));
         for (index, _) in &uncertain {
             next_ranges[*index] = ranges[*index];
         }
-        let design = Design::build(&study.design, k).expect("the design was built for round 0");
+        let design = study
+            .coded_design(&study.design)
+            .expect("the design was built for round 0");
         let mut next_points: Vec<DesignPoint> = design
-            .points
             .into_iter()
-            .map(|coded| DesignPoint::in_box(coded, &next_ranges))
+            .map(|coded| study.point(coded, &next_ranges))
             .collect();
         let samples = front_samples(
             &record.front,
             &next_ranges,
             objective.front_points.min(MAX_FRONT_SAMPLES),
             &next_points,
+            &study.levels(),
         );
         let n_samples = samples.len();
         next_points.extend(samples);
@@ -350,14 +351,14 @@ mod tests {
             coded: vec![0.0],
             natural: vec![0.5],
         }];
-        let samples = front_samples(&front, &ranges, 3, &taken);
+        let samples = front_samples(&front, &ranges, 3, &taken, &[]);
         let natural: Vec<f64> = samples.iter().map(|p| p.natural[0]).collect();
         assert_eq!(natural.len(), 3, "{natural:?}");
         assert!((natural[0] - 0.1).abs() < 1e-9, "{natural:?}");
         assert!((natural[2] - 0.9).abs() < 1e-9, "{natural:?}");
         assert!(samples.iter().all(|p| p.coded[0].abs() <= 1.0));
         assert!(natural.iter().all(|v| (v - 0.5).abs() > 1e-9));
-        assert!(front_samples(&front, &ranges, 0, &[]).is_empty());
-        assert_eq!(front_samples(&front[..2], &ranges, 5, &[]).len(), 0);
+        assert!(front_samples(&front, &ranges, 0, &[], &[]).is_empty());
+        assert_eq!(front_samples(&front[..2], &ranges, 5, &[], &[]).len(), 0);
     }
 }

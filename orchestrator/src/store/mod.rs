@@ -286,13 +286,17 @@ impl Store {
                 .map_err(query_error("record the study's files"))?;
         }
         for (idx, factor) in study.factors.iter().enumerate() {
-            sqlx::query("INSERT INTO factors (study_id, idx, name, min, max, unit) VALUES (?, ?, ?, ?, ?, ?)")
+            let levels = factor
+                .is_text()
+                .then(|| serde_json::to_string(&factor.levels).expect("strings serialise"));
+            sqlx::query("INSERT INTO factors (study_id, idx, name, min, max, unit, levels) VALUES (?, ?, ?, ?, ?, ?, ?)")
                 .bind(study_id)
                 .bind(idx as i64)
                 .bind(&factor.name)
                 .bind(factor.range.min)
                 .bind(factor.range.max)
                 .bind(&factor.unit)
+                .bind(levels)
                 .execute(&mut *tx)
                 .await
                 .map_err(query_error("record a factor"))?;
@@ -593,11 +597,13 @@ impl Store {
 
     /// The factors of a study in order.
     pub async fn factors(&self, study_id: i64) -> Result<Vec<FactorRow>, StoreError> {
-        sqlx::query_as("SELECT name, min, max, unit FROM factors WHERE study_id = ? ORDER BY idx")
-            .bind(study_id)
-            .fetch_all(&self.pool)
-            .await
-            .map_err(query_error("list factors"))
+        sqlx::query_as(
+            "SELECT name, min, max, unit, levels FROM factors WHERE study_id = ? ORDER BY idx",
+        )
+        .bind(study_id)
+        .fetch_all(&self.pool)
+        .await
+        .map_err(query_error("list factors"))
     }
 
     /// The design points of a study with their coded and natural values.

@@ -514,6 +514,37 @@ pub struct FactorRow {
     pub max: f64,
     /// Unit.
     pub unit: String,
+    /// A text factor's values as a JSON array (NULL, `None`, for a numeric factor).
+    #[sqlx(default)]
+    pub levels: Option<String>,
+}
+
+impl FactorRow {
+    /// A text factor's values in the study's order; empty for a numeric factor.
+    pub fn levels(&self) -> Vec<String> {
+        self.levels
+            .as_deref()
+            .and_then(|json| serde_json::from_str(json).ok())
+            .unwrap_or_default()
+    }
+
+    /// The text of level index `natural` of a text factor; `None` for a numeric one.
+    pub fn level_text(&self, natural: f64) -> Option<String> {
+        let index = natural.round();
+        let levels = self.levels();
+        (index >= 0.0)
+            .then(|| levels.get(index as usize).cloned())
+            .flatten()
+    }
+
+    /// A value of this factor as people read it: the level's text for a text factor,
+    /// else `number` (the caller's formatting of `natural`).
+    pub fn show(&self, natural: f64, number: impl FnOnce(f64) -> String) -> String {
+        match self.level_text(natural) {
+            Some(text) => text,
+            None => number(natural),
+        }
+    }
 }
 
 /// A design point with its values in factor order.

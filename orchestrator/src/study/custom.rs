@@ -661,22 +661,33 @@ impl Checker<'_> {
     /// `fixed:` value the deck does not declare must change them too, or it is a
     /// misspelling, refused with the nearest name the study knows.
     pub(super) fn every_factor_is_used(&self, study: &Study) -> Result<(), StudyError> {
-        let centre: Vec<f64> = study
-            .factors
-            .iter()
-            .map(|f| f.range.to_natural(0.0))
-            .collect();
+        let limits: Vec<_> = study.factors.iter().map(|f| f.range).collect();
+        let centre = study.point(vec![0.0; limits.len()], &limits).natural;
         let render = |case: &orch_adapters::Case| study.simulation.render_texts(case);
         let Ok(base) = render(&study.case_at(&centre, 0)) else {
             return Ok(()); // every design point rendered; the centre's error shows there
         };
         for (i, factor) in study.factors.iter().enumerate() {
-            let levels = [factor.range.min, factor.range.max];
+            let levels: Vec<f64> = match factor.is_text() {
+                true => (0..factor.levels.len()).map(|l| l as f64).collect(),
+                false => vec![factor.range.min, factor.range.max],
+            };
             let used = levels.iter().any(|&level| {
                 let mut moved = centre.clone();
                 moved[i] = level;
                 render(&study.case_at(&moved, 0)).is_ok_and(|texts| texts != base)
             });
+            if !used && factor.is_text() {
+                return Err(self.error(
+                    &format!("factors[{i}].name"),
+                    format!(
+                        "factor `{}` is not used by the templates: they render the same at each of its levels ({}); use it in a template (`{{{{ {} }}}}`) or remove the factor",
+                        factor.name,
+                        factor.levels.join(", "),
+                        factor.name
+                    ),
+                ));
+            }
             if !used {
                 return Err(self.error(
                     &format!("factors[{i}].name"),

@@ -661,10 +661,16 @@ impl<'de> Deserialize<'de> for TimeLimit {
 pub struct FactorFile {
     /// Template parameter it sets.
     pub name: String,
-    /// Lower bound, natural units.
-    pub min: f64,
-    /// Upper bound, natural units.
-    pub max: f64,
+    /// Lower bound, natural units (a numeric factor).
+    #[serde(default)]
+    pub min: Option<f64>,
+    /// Upper bound, natural units (a numeric factor).
+    #[serde(default)]
+    pub max: Option<f64>,
+    /// The values of a text factor, in the order the study lists them (`[hertz,
+    /// hooke]`); a user's own deck's templates see the chosen one as text.
+    #[serde(default)]
+    pub levels: Option<Vec<FixedValue>>,
     /// Unit, for reports; checked against the parameter's unit when given.
     #[serde(default)]
     pub unit: Option<String>,

@@ -17,9 +17,11 @@ use orch_adapters::{
     EquipmentOnSolver, ParameterSpec, ResolvedParameters, Simulation, Stage, DEFAULT_EQUIPMENT,
 };
 use orch_metamodel::kriging::{Kernel, KrigingOptions, Trend};
+use orch_metamodel::levels::{coded_level, level_of};
 use orch_metamodel::surrogate::ModelChoice;
 use orch_metamodel::{
-    BasisKind, CentralCompositeAlpha, Design, DesignKind, Distribution, FactorRange, Goal, MAX_RUNS,
+    BasisKind, CentralCompositeAlpha, Design, DesignError, DesignKind, Distribution, FactorRange,
+    Goal, MAX_RUNS,
 };
 use sha2::{Digest, Sha256};
 
@@ -55,10 +57,36 @@ pub struct StudyError {
 pub struct Factor {
     /// Template parameter it sets.
     pub name: String,
-    /// Its range in natural units.
+    /// Its range in natural units; for a text factor `[0, L − 1]`, its levels'
+    /// indices.
     pub range: FactorRange,
-    /// Unit.
+    /// Unit (empty for a text factor).
     pub unit: String,
+    /// A text factor's values in the study's order (empty for a numeric factor): its
+    /// natural value is the index of one of them.
+    pub levels: Vec<String>,
+}
+
+impl Factor {
+    /// True for a text factor (`levels:`).
+    pub fn is_text(&self) -> bool {
+        !self.levels.is_empty()
+    }
+
+    /// Its number of levels as [`orch_metamodel::levels`] counts them: 0 for a
+    /// numeric factor.
+    pub fn level_count(&self) -> u32 {
+        self.levels.len() as u32
+    }
+
+    /// The text of level index `natural` of a text factor, `None` for a numeric
+    /// factor or an index outside its levels.
+    pub fn level_text(&self, natural: f64) -> Option<&str> {
+        let index = natural.round();
+        (self.is_text() && index >= 0.0)
+            .then(|| self.levels.get(index as usize).map(String::as_str))
+            .flatten()
+    }
 }
 
 /// One point of the design: coded and natural coordinates, in factor order.
@@ -71,13 +99,27 @@ pub struct DesignPoint {
 }
 
 impl DesignPoint {
-    /// The point at `coded` coordinates of the box `ranges` (one per factor).
-    pub fn in_box(coded: Vec<f64>, ranges: &[FactorRange]) -> DesignPoint {
+    /// The point at `coded` coordinates of the box `ranges` (one per factor); a text
+    /// factor (`levels`, see [`orch_metamodel::levels`]) is put on the level its
+    /// coordinate stands for, its natural value that level's index.
+    pub fn in_box(coded: Vec<f64>, ranges: &[FactorRange], levels: &[u32]) -> DesignPoint {
+        let coded: Vec<f64> = coded
+            .iter()
+            .enumerate()
+            .map(|(i, &c)| match levels.get(i) {
+                Some(&count) if count > 0 => coded_level(level_of(c, count), count),
+                _ => c,
+            })
+            .collect();
         DesignPoint {
             natural: coded
                 .iter()
+                .enumerate()
                 .zip(ranges)
-                .map(|(c, r)| r.to_natural(*c))
+                .map(|((i, &c), r)| match levels.get(i) {
+                    Some(&count) if count > 0 => level_of(c, count) as f64,
+                    _ => r.to_natural(c),
+                })
                 .collect(),
             coded,
         }
@@ -530,6 +572,34 @@ impl Study {
         self.simulation.template()
     }
 
+    /// Levels of each factor as [`orch_metamodel::levels`] counts them (0 for numeric).
+    pub fn levels(&self) -> Vec<u32> {
+        self.factors.iter().map(Factor::level_count).collect()
+    }
+
+    /// The coded points of design `kind` over the study's factors: the design over the
+    /// numeric factors, crossed with every combination of the text factors' levels
+    /// (a Latin hypercube instead has its levels stratified over its rows).
+    pub fn coded_design(&self, kind: &DesignKind) -> Result<Vec<Vec<f64>>, DesignError> {
+        coded_design(kind, &self.levels())
+    }
+
+    /// `ranges` with every text factor's range back to all its levels: a next round
+    /// narrows numbers around the optimum but keeps trying every level.
+    pub fn text_kept_whole(&self, mut ranges: Vec<FactorRange>) -> Vec<FactorRange> {
+        for (range, factor) in ranges.iter_mut().zip(&self.factors) {
+            if factor.is_text() {
+                *range = factor.range;
+            }
+        }
+        ranges
+    }
+
+    /// The point at `coded` in the box `ranges` ([`DesignPoint::in_box`]).
+    pub fn point(&self, coded: Vec<f64>, ranges: &[FactorRange]) -> DesignPoint {
+        DesignPoint::in_box(coded, ranges, &self.levels())
+    }
+
     /// Number of jobs of the first round: (design + test points) × replicates.
     pub fn job_count(&self) -> usize {
         (self.points.len() + self.metamodel.test_points) * self.replicates as usize
@@ -546,11 +616,10 @@ impl Study {
             seed: self.seed.wrapping_add(7_919 * (round as u64 + 1)),
             candidates: 50,
         };
-        Design::build(&kind, self.factors.len())
-            .map(|d| d.points)
+        self.coded_design(&kind)
             .unwrap_or_default()
             .into_iter()
-            .map(|coded| DesignPoint::in_box(coded, ranges))
+            .map(|coded| self.point(coded, ranges))
             .collect()
     }
 
@@ -596,15 +665,53 @@ impl Study {
         for (name, value) in &self.fixed {
             parameters.set(name, *value);
         }
+        let mut text = self.fixed_text.clone();
         for (factor, value) in self.factors.iter().zip(natural) {
-            parameters.set(&factor.name, *value);
+            match factor.level_text(*value) {
+                Some(level) => {
+                    text.insert(factor.name.clone(), level.to_string());
+                }
+                None => parameters.set(&factor.name, *value),
+            }
         }
         Case {
             parameters,
-            text: self.fixed_text.clone(),
+            text,
             seed,
         }
     }
+}
+
+/// The coded points of design `kind` over factors with `levels` (0 for numeric):
+/// see [`Study::coded_design`]. The crossed design's size is checked against
+/// [`MAX_RUNS`] before it is built.
+pub fn coded_design(kind: &DesignKind, levels: &[u32]) -> Result<Vec<Vec<f64>>, DesignError> {
+    use orch_metamodel::levels as text;
+    let k = levels.len();
+    let numeric = text::numeric_factors(levels, k).len();
+    let combinations = text::combination_count(levels);
+    if let DesignKind::LatinHypercube { samples, seed, .. } = *kind {
+        let rows = if numeric == 0 {
+            vec![Vec::new(); samples]
+        } else {
+            Design::build(kind, numeric)?.points
+        };
+        return Ok(text::stratify(levels, k, &rows, seed));
+    }
+    let rows = if numeric == 0 {
+        vec![Vec::new()]
+    } else {
+        let runs = orch_metamodel::run_count(kind, numeric)?;
+        let crossed = runs.saturating_mul(combinations);
+        if crossed > MAX_RUNS {
+            return Err(DesignError::TooManyRuns {
+                runs: crossed,
+                limit: MAX_RUNS,
+            });
+        }
+        Design::build(kind, numeric)?.points
+    };
+    Ok(text::cross(levels, k, &rows))
 }
 
 /// Every response of `simulation` and of `stages`.
@@ -1050,35 +1157,51 @@ impl Checker<'_> {
                     ),
                 ));
             }
-            if !(factor.min.is_finite() && factor.max.is_finite()) {
+            if let Some(levels) = &factor.levels {
+                factors.push(self.text_factor(
+                    i,
+                    factor,
+                    levels,
+                    deck.is_some(),
+                    equipment_name,
+                )?);
+                continue;
+            }
+            let (Some(min), Some(max)) = (factor.min, factor.max) else {
+                return Err(self.error(
+                    &at(if factor.min.is_none() { "min" } else { "max" }),
+                    format!(
+                        "`{}` needs a range (min and max, SI units) or, for text, `levels: [a, b]`",
+                        factor.name
+                    ),
+                ));
+            };
+            if !(min.is_finite() && max.is_finite()) {
                 return Err(self.error(&at("min"), "expected finite numbers for min and max"));
             }
-            if !(factor.max - factor.min).is_finite() {
+            if !(max - min).is_finite() {
                 return Err(self.error(
                     &at("max"),
                     format!(
                         "the range [{:?}, {:?}] is wider than a number can hold (max − min overflows), so its design points would be infinite; give a range in SI units that fits the equipment",
-                        factor.min, factor.max
+                        min, max
                     ),
                 ));
             }
-            if factor.min >= factor.max {
+            if min >= max {
                 return Err(self.error(
                     &at("max"),
-                    format!(
-                        "expected max greater than min ({}), got {}",
-                        factor.min, factor.max
-                    ),
+                    format!("expected max greater than min ({}), got {}", min, max),
                 ));
             }
             let unit = match spec_of(&factor.name) {
                 Some(spec) => {
-                    if factor.min < spec.min || factor.max > spec.max {
+                    if min < spec.min || max > spec.max {
                         return Err(self.error(
-                            &at(if factor.min < spec.min { "min" } else { "max" }),
+                            &at(if min < spec.min { "min" } else { "max" }),
                             format!(
                                 "`{}` must lie within [{}, {}] {}, got [{}, {}]",
-                                factor.name, spec.min, spec.max, spec.unit, factor.min, factor.max
+                                factor.name, spec.min, spec.max, spec.unit, min, max
                             ),
                         ));
                     }
@@ -1107,11 +1230,9 @@ impl Checker<'_> {
             };
             factors.push(Factor {
                 name: factor.name.clone(),
-                range: FactorRange {
-                    min: factor.min,
-                    max: factor.max,
-                },
+                range: FactorRange { min, max },
                 unit,
+                levels: Vec::new(),
             });
         }
         let mut fixed = BTreeMap::new();
@@ -1171,13 +1292,13 @@ impl Checker<'_> {
             ));
         }
         let design_kind = self.design_kind("design", &file.design, file.seed)?;
-        let design = Design::build(&design_kind, factors.len())
-            .map_err(|e| self.error("design", e.to_string()))?;
+        let levels: Vec<u32> = factors.iter().map(Factor::level_count).collect();
+        let design =
+            coded_design(&design_kind, &levels).map_err(|e| self.error("design", e.to_string()))?;
         let limits: Vec<FactorRange> = factors.iter().map(|f| f.range).collect();
         let points: Vec<DesignPoint> = design
-            .points
             .into_iter()
-            .map(|coded| DesignPoint::in_box(coded, &limits))
+            .map(|coded| DesignPoint::in_box(coded, &limits, &levels))
             .collect();
         for (index, point) in points.iter().enumerate() {
             if let Some((factor, value)) = factors
@@ -1667,6 +1788,16 @@ impl Checker<'_> {
                 return Err(self.error(&at("name"), format!("`{}` is listed twice", p.name)));
             }
             let factor = factors.iter().position(|f| f.name == p.name);
+            if let Some(text) = factor.map(|i| &factors[i]).filter(|f| f.is_text()) {
+                return Err(self.error(
+                    &at("name"),
+                    format!(
+                        "`{}` is a text factor ({}): it has no spread of numbers to be uncertain in; remove it from `uncertainty.parameters`",
+                        text.name,
+                        text.levels.join(", ")
+                    ),
+                ));
+            }
             // A factor with a normal spread and no mean: a tolerance around the optimum.
             if let (Some(index), DistributionFile::Normal, None) = (factor, p.distribution, p.mean)
             {
@@ -1811,6 +1942,87 @@ impl Checker<'_> {
             ));
         }
         Ok(centre)
+    }
+
+    /// Factor `index` of the file, a text factor with `levels`: at least two distinct,
+    /// non-empty values, no range and no unit, and only for a user's own deck
+    /// (`own_deck`), whose templates take text.
+    fn text_factor(
+        &self,
+        index: usize,
+        factor: &file::FactorFile,
+        levels: &[FixedValue],
+        own_deck: bool,
+        equipment_name: &str,
+    ) -> Result<Factor, StudyError> {
+        let at = |field: &str| format!("factors[{index}].{field}");
+        if !own_deck {
+            return Err(self.error(
+                &at("levels"),
+                format!(
+                    "`{}` is a text factor, and the {equipment_name} equipment takes numbers only; text factors are for your own deck (`equipment: custom`). Give min and max instead",
+                    factor.name
+                ),
+            ));
+        }
+        if factor.min.is_some() || factor.max.is_some() {
+            return Err(self.error(
+                &at(if factor.min.is_some() { "min" } else { "max" }),
+                format!(
+                    "`{}` has levels and a range; a factor is either text (`levels:`) or a number (min and max): remove one",
+                    factor.name
+                ),
+            ));
+        }
+        if factor.unit.is_some() {
+            return Err(self.error(
+                &at("unit"),
+                format!(
+                    "`{}` is a text factor and has no unit; remove `unit:`",
+                    factor.name
+                ),
+            ));
+        }
+        let texts: Vec<String> = levels
+            .iter()
+            .map(|level| match level {
+                FixedValue::Text(text) => text.clone(),
+                FixedValue::Number(number) => format!("{number}"),
+            })
+            .collect();
+        if texts.len() < 2 {
+            return Err(self.error(
+                &at("levels"),
+                format!(
+                    "`{}` has {} level; a text factor needs at least two (a single value belongs in `fixed:`)",
+                    factor.name,
+                    texts.len()
+                ),
+            ));
+        }
+        for (i, text) in texts.iter().enumerate() {
+            if text.trim().is_empty() {
+                return Err(self.error(
+                    &format!("factors[{index}].levels[{i}]"),
+                    "expected a non-empty value",
+                ));
+            }
+            if texts[..i].contains(text) {
+                return Err(self.error(
+                    &format!("factors[{index}].levels[{i}]"),
+                    format!("`{text}` is listed twice; each level must differ"),
+                ));
+            }
+        }
+        Ok(Factor {
+            name: factor.name.clone(),
+            range: FactorRange {
+                min: 0.0,
+                max: (texts.len() - 1) as f64,
+            },
+            unit: String::new(),
+            levels: texts,
+        })
     }
 
     /// The design `design` describes; `at` is its field path (`design`, or a noise

@@ -475,13 +475,19 @@ impl StudyDetail {
     }
 
     fn rounds_json(&self, names: &[&str]) -> Value {
-        Value::Array(self.rounds.iter().map(|r| round_json(r, names)).collect())
+        let levels: Vec<Vec<String>> = self.factors.iter().map(FactorRow::levels).collect();
+        Value::Array(
+            self.rounds
+                .iter()
+                .map(|r| round_json(r, names, &levels))
+                .collect(),
+        )
     }
 
     fn noise_json(&self) -> Value {
         json!(self.noise.as_ref().map(|n| {
             let names: Vec<&str> = n.factors.iter().map(String::as_str).collect();
-            json!({"study": n.study, "round": round_json(&n.round, &names)})
+            json!({"study": n.study, "round": round_json(&n.round, &names, &[])})
         }))
     }
 
@@ -506,16 +512,8 @@ fn factors_json(factors: &[FactorRow]) -> Value {
 /// One job of `orch status --json`.
 fn job_json(d: &JobDetail, factors: &[FactorRow]) -> Value {
     let names: Vec<&str> = factors.iter().map(|f| f.name.as_str()).collect();
-    let natural: BTreeMap<&str, Value> = factors
-        .iter()
-        .zip(&d.natural)
-        .map(
-            |(f, v)| match f.level_text(*v).filter(|_| f.levels.is_some()) {
-                Some(text) => (f.name.as_str(), json!(text)),
-                None => (f.name.as_str(), json!(v)),
-            },
-        )
-        .collect();
+    let levels: Vec<Vec<String>> = factors.iter().map(FactorRow::levels).collect();
+    let natural = natural_by_factor(&names, &levels, &d.natural);
     json!({
         "name": d.job.name,
         "id": d.job.id,
@@ -682,6 +680,31 @@ pub async fn write_json_paged<W: Write>(
 }
 
 /// Values keyed by factor name.
+/// Natural values by factor name: a text factor's (one with `levels`, by position)
+/// as its level's text.
+fn natural_by_factor(
+    names: &[&str],
+    levels: &[Vec<String>],
+    values: &[f64],
+) -> BTreeMap<String, Value> {
+    names
+        .iter()
+        .zip(values)
+        .enumerate()
+        .map(|(i, (n, v))| {
+            let level = levels
+                .get(i)
+                .filter(|l| !l.is_empty())
+                .and_then(|l| l.get(v.round().max(0.0) as usize));
+            let value = match level {
+                Some(text) => json!(text),
+                None => json!(v),
+            };
+            (n.to_string(), value)
+        })
+        .collect()
+}
+
 fn by_factor(names: &[&str], values: &[f64]) -> BTreeMap<String, f64> {
     names
         .iter()
@@ -690,8 +713,10 @@ fn by_factor(names: &[&str], values: &[f64]) -> BTreeMap<String, f64> {
         .collect()
 }
 
-fn round_json(round: &StoredRound, names: &[&str]) -> Value {
-    let by_factor = |values: &[f64]| by_factor(names, values);
+/// A round in `orch status --json`; `levels` are the text factors' levels by
+/// position (empty for numeric factors, or for none).
+fn round_json(round: &StoredRound, names: &[&str], levels: &[Vec<String>]) -> Value {
+    let by_factor = |values: &[f64]| natural_by_factor(names, levels, values);
     json!({
         "round": round.round,
         "box": names.iter().zip(&round.ranges).map(|(n, r)| (n.to_string(), json!({"min": r.min, "max": r.max}))).collect::<BTreeMap<_, _>>(),
@@ -807,12 +832,11 @@ pub fn recommendation(
         .iter()
         .zip(natural)
         .map(|(f, v)| {
-            format!(
-                "{} = {} {}",
-                f.name,
-                crate::report::html::number(*v),
-                f.unit
-            )
+            let value = f.show(*v, crate::report::html::number);
+            match f.unit.is_empty() {
+                true => format!("{} = {value}", f.name),
+                false => format!("{} = {value} {}", f.name, f.unit),
+            }
         })
         .collect();
     let compromise = round.front.iter().find(|p| p.compromise);
@@ -1504,7 +1528,7 @@ mod tests {
             front: vec![point(2.0, 1.5, 0.028, false), point(1.0, 1.1, 0.024, true)],
             ..Default::default()
         };
-        let json = round_json(&round, &["outlet_diameter"]);
+        let json = round_json(&round, &["outlet_diameter"], &[]);
         assert_eq!(
             json["pareto_front"],
             json!([
@@ -1518,7 +1542,7 @@ mod tests {
         );
         // A single-objective round has an empty front and no line.
         assert_eq!(
-            round_json(&StoredRound::default(), &[])["pareto_front"],
+            round_json(&StoredRound::default(), &[], &[])["pareto_front"],
             json!([])
         );
         assert_eq!(front_lines(&StoredRound::default(), &[]), "");

@@ -30,4 +30,5 @@ mod slurm;
 mod stop_when;
 mod study_files;
 mod support;
+mod text_factors;
 mod yade;

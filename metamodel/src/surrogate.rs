@@ -637,6 +637,59 @@ mod tests {
     }
 
     #[test]
+    fn with_a_text_factor_the_polynomial_has_indicators_and_kriging_is_one_per_level() {
+        // x numeric, m text with 3 levels: a level shift and a level-dependent slope.
+        let numeric: Vec<Vec<f64>> = (0..9).map(|i| vec![-1.0 + i as f64 / 4.0]).collect();
+        let x = crate::levels::cross(&[0, 3], 2, &numeric);
+        let shift = [0.0, 2.0, -1.0];
+        let slope = [1.0, -0.5, 0.3];
+        let y: Vec<f64> = x
+            .iter()
+            .map(|p| {
+                let l = crate::levels::level_of(p[1], 3) as usize;
+                shift[l] + slope[l] * p[0] + 0.4 * p[0] * p[0]
+            })
+            .collect();
+        let choice = choose(
+            ModelChoice::Auto,
+            BasisKind::Legendre,
+            &names(2),
+            &[0, 3],
+            &x,
+            &y,
+            &KrigingOptions::default(),
+        )
+        .unwrap();
+        let Surrogate::Polynomial(fit) = &choice.surrogate else {
+            panic!("{:?}", choice.candidates);
+        };
+        assert!(fit.quality.r2 > 1.0 - 1e-12);
+        assert!(fit.names.iter().any(|n| n == "x1[3]"), "{:?}", fit.names);
+        // Its spec rebuilds it with the levels.
+        let again = Surrogate::rebuild(&choice.surrogate.spec(), &names(2), &x, &y).unwrap();
+        assert!((again.predict(&[0.3, 0.0]) - (2.0 - 0.15 + 0.036)).abs() < 1e-9);
+        let kriging = choice.candidates.last().unwrap();
+        assert!(kriging.name.ends_with("one per level"), "{kriging:?}");
+        assert!(kriging.loo_rmse.is_some(), "{kriging:?}");
+        // Asked for Kriging: one model per level, rebuilt from its spec.
+        let asked = choose(
+            ModelChoice::Kriging,
+            BasisKind::Legendre,
+            &names(2),
+            &[0, 3],
+            &x,
+            &y,
+            &KrigingOptions::default(),
+        )
+        .unwrap();
+        assert!(matches!(asked.surrogate, Surrogate::KrigingPerLevel(_)));
+        let again = Surrogate::rebuild(&asked.surrogate.spec(), &names(2), &x, &y).unwrap();
+        for p in [[0.3, -1.0], [0.3, 0.0], [-0.6, 1.0]] {
+            assert!((again.predict(&p) - asked.surrogate.predict(&p)).abs() < 1e-9);
+        }
+    }
+
+    #[test]
     fn a_plane_is_modelled_by_the_linear_candidate() {
         // y = 1 + 2 x0 − x1 with normal noise (σ = 0.01, seeded): the higher orders only
         // fit noise, so the simplest within the margin wins.

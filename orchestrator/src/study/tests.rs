@@ -878,3 +878,124 @@ fn a_vtk_response_names_its_field_and_where_it_is() {
         "{pick}"
     );
 }
+
+/// A custom study of `factors` and `design` whose script uses every name in `uses`.
+fn text_study(factors: &str, design: &str, uses: &[&str]) -> Result<Study, StudyError> {
+    let dir = tempfile::tempdir().unwrap();
+    let script: String = uses
+        .iter()
+        .map(|n| format!("echo {n} = {{{{ {n} }}}}\n"))
+        .collect();
+    std::fs::write(dir.path().join("deck.sh.tera"), script).unwrap();
+    let text = format!(
+        "name: words\nequipment: custom\ncase:\n  templates: [deck.sh.tera]\n  command: [sh, deck.sh]\n  responses:\n    - {{name: y, regex: 'y = (\\S+)'}}\nfactors:\n{factors}design: {design}\n"
+    );
+    let path = dir.path().join("words.yaml");
+    std::fs::write(&path, &text).unwrap();
+    Study::load(&path)
+}
+
+#[test]
+fn text_factors_cross_every_design_but_a_hypercube_which_shares_levels_out() {
+    let factors = "  - {name: x, min: 0, max: 2}\n  - {name: y, min: 0, max: 1}\n  - {name: model, levels: [hertz, hooke]}\n";
+    let uses = ["x", "y", "model"];
+    // A central composite over x and y (4 + 4 + 1 points) at each of 2 levels.
+    let ccd = text_study(
+        factors,
+        "{type: central_composite, center_points: 1}",
+        &uses,
+    )
+    .unwrap();
+    assert_eq!(ccd.points.len(), 18);
+    assert_eq!(ccd.levels(), [0, 0, 2]);
+    let hooke: Vec<&DesignPoint> = ccd.points.iter().filter(|p| p.natural[2] == 1.0).collect();
+    assert_eq!(hooke.len(), 9);
+    assert!(hooke.iter().all(|p| p.coded[2] == 1.0));
+    // The template sees the level's text, not its index.
+    let case = ccd.case(hooke[0], 7);
+    assert_eq!(case.text["model"], "hooke");
+    assert!(!case.parameters.0.contains_key("model"));
+    // A Latin hypercube of 9: the levels get 5 and 4 runs, x keeps one run per stratum.
+    let lhs = text_study(factors, "{type: latin_hypercube, samples: 9}", &uses).unwrap();
+    let hertz = lhs.points.iter().filter(|p| p.natural[2] == 0.0).count();
+    assert!(hertz == 4 || hertz == 5, "{hertz}");
+    let mut strata: Vec<usize> = lhs
+        .points
+        .iter()
+        .map(|p| ((p.coded[0] + 1.0) / 2.0 * 9.0).floor() as usize)
+        .collect();
+    strata.sort();
+    assert_eq!(strata, (0..9).collect::<Vec<_>>());
+    // Only text factors: the full factorial of their levels.
+    let words = text_study(
+        "  - {name: model, levels: [hertz, hooke]}\n  - {name: mesh, levels: [a, b, c]}\n",
+        "{type: full_factorial, levels: 3}",
+        &["model", "mesh"],
+    )
+    .unwrap();
+    assert_eq!(words.points.len(), 6);
+    // A next round keeps every level whatever box the numbers shrink to.
+    let narrow = vec![
+        FactorRange { min: 0.5, max: 1.0 },
+        FactorRange { min: 0.2, max: 0.4 },
+        FactorRange { min: 1.0, max: 1.0 },
+    ];
+    assert_eq!(
+        ccd.text_kept_whole(narrow)[2],
+        FactorRange { min: 0.0, max: 1.0 }
+    );
+    // The crossed design's size is checked: 3^4 numeric points × 2 × 3 × … levels.
+    let many = format!(
+        "{}  - {{name: a, levels: [{}]}}\n",
+        factors,
+        (0..100)
+            .map(|i| format!("l{i}"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    let error = text_study(
+        &many,
+        "{type: full_factorial, levels: 40}",
+        &["x", "y", "model", "a"],
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(error.contains("more than the limit of 100000"), "{error}");
+}
+
+#[test]
+fn a_text_factor_cannot_carry_a_unit_or_a_spread() {
+    let error = text_study(
+        "  - {name: x, min: 0, max: 2}\n  - {name: model, levels: [hertz, hooke], unit: m}\n",
+        "{type: full_factorial, levels: 2}",
+        &["x", "model"],
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        error.contains("factors[1].unit: `model` is a text factor and has no unit"),
+        "{error}"
+    );
+    let error = text_study(
+        "  - {name: x, min: 0, max: 2}\n  - {name: model, levels: [hertz, hooke]}\nuncertainty:\n  parameters:\n    - {name: model, distribution: normal, mean: 0.5, std: 0.1}\n",
+        "{type: full_factorial, levels: 2}",
+        &["x", "model"],
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        error.contains("`model` is a text factor (hertz, hooke)"),
+        "{error}"
+    );
+    let error = text_study(
+        "  - {name: x, min: 0}\n",
+        "{type: full_factorial, levels: 2}",
+        &["x"],
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        error.contains("`x` needs a range (min and max, SI units) or, for text, `levels: [a, b]`"),
+        "{error}"
+    );
+}

@@ -286,7 +286,10 @@ fn dry_run_summary(study: &Study) -> String {
         let _ = writeln!(out, "  {name:<20} {value:>22} {unit:<8} {origin}");
     };
     for factor in &study.factors {
-        let range = format!("[{}, {}]", factor.range.min, factor.range.max);
+        let range = match factor.is_text() {
+            true => format!("{{{}}}", factor.levels.join(", ")),
+            false => format!("[{}, {}]", factor.range.min, factor.range.max),
+        };
         line(&factor.name, range, &factor.unit, "factor");
     }
     let declared = |name: &str| simulation.parameters().iter().any(|p| p.name == name);
@@ -695,7 +698,10 @@ async fn submit(
                 .factors
                 .iter()
                 .zip(&point.natural)
-                .map(|(f, v)| format!("{} = {v:.6} {}", f.name, f.unit))
+                .map(|(f, v)| match f.level_text(*v) {
+                    Some(level) => format!("{} = {level}", f.name),
+                    None => format!("{} = {v:.6} {}", f.name, f.unit),
+                })
                 .collect();
             outln!("  p{i:03}: {}", values.join(", "))?;
         }

@@ -104,7 +104,12 @@ pub fn study_text(
         .unwrap_or_default();
     for (index, factor) in parent.factors.iter().enumerate() {
         if !noise.tolerances.iter().any(|(i, _)| *i == index) {
-            fixed.insert(key(&factor.name), number(optimum[index]));
+            // A text factor is fixed at its level's text, as the deck saw it.
+            let value = match factor.level_text(optimum[index]) {
+                Some(level) => key(level),
+                None => number(optimum[index]),
+            };
+            fixed.insert(key(&factor.name), value);
         }
     }
     let design = uncertainty
@@ -332,6 +337,26 @@ uncertainty:
     - {name: density, distribution: normal, mean: 2400, std: 96}
     - {name: shape_x2, distribution: normal, std: 0.0005}
 ";
+
+    #[test]
+    fn a_text_factor_is_fixed_at_its_level_in_the_noise_study() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(
+            dir.path().join("deck.sh.tera"),
+            "echo {{ x }} {{ contact }} {{ density }}\n",
+        )
+        .unwrap();
+        let text = "name: deck\nequipment: custom\ncase:\n  templates: [deck.sh.tera]\n  command: [sh, deck.sh]\n  responses:\n    - {name: y, regex: 'y = (\\S+)'}\nfactors:\n  - {name: x, min: 0, max: 1}\n  - {name: contact, levels: [hertz, hooke]}\ndesign: {type: full_factorial, levels: 2}\nobjective: {response: y, goal: minimise}\nuncertainty:\n  parameters:\n    - {name: density, distribution: normal, mean: 2500, std: 100}\n";
+        let path = dir.path().join("deck.yaml");
+        std::fs::write(&path, text).unwrap();
+        let parent = Study::load(&path).unwrap();
+        let noise = parent.uncertainty.as_ref().unwrap().noise.as_ref().unwrap();
+        let child_text = study_text(&parent, "deck", noise, &[0.25, 1.0]).unwrap();
+        std::fs::write(&path, &child_text).unwrap();
+        let child = Study::load(&path).unwrap();
+        assert_eq!(child.fixed_text["contact"], "hooke", "{child_text}");
+        assert_eq!(child.fixed["x"], 0.25);
+    }
 
     #[test]
     fn the_noise_study_varies_materials_and_tolerances_around_the_optimum() {

@@ -224,3 +224,71 @@ fn a_latin_hypercube_shares_each_level_equally_and_bad_text_factors_are_refused(
     );
     assert!(!project.project_dir().join("runs/bad").exists());
 }
+
+#[test]
+fn the_contact_model_is_a_design_variable_of_a_real_liggghts_deck() {
+    if !crate::support::require_liggghts() {
+        return;
+    }
+    let _lock = crate::support::solver_lock();
+    let project = Project::new();
+    let deck = project.dir.path().join("inclined-plane");
+    std::fs::create_dir_all(&deck).unwrap();
+    for file in ["in.plane.tera", "materials.in"] {
+        let from = crate::support::root()
+            .join("jobs/inclined-plane")
+            .join(file);
+        std::fs::copy(from, deck.join(file)).unwrap();
+    }
+    let study =
+        std::fs::read_to_string(crate::support::root().join("jobs/contact-models.yaml")).unwrap();
+    let file = project.write("contact-models.yaml", &study);
+    let output = project.run(&["submit", file.to_str().unwrap()]);
+    assert_eq!(output.status.code(), Some(0), "{}", text(&output.stderr));
+
+    let status = project.status("contact-models");
+    assert_eq!(count(&status, "succeeded"), 6, "{status:#}");
+    let mut models = BTreeMap::new();
+    for job in status["jobs"].as_array().unwrap() {
+        let angle = job["factors"]["angle"].as_f64().unwrap();
+        let model = job["factors"]["contact_model"]
+            .as_str()
+            .unwrap()
+            .to_string();
+        let acceleration = job["responses"]["acceleration"].as_f64().unwrap();
+        let speed = job["responses"]["mean_speed"].as_f64().unwrap();
+        eprintln!(
+            "{model} at {angle}°: mean speed {speed:.4} m/s, acceleration {acceleration:.4} m/s²"
+        );
+        // Rolling spheres accelerate at most at (5/7) g sin θ, whatever the contact.
+        let rolling = 5.0 / 7.0 * 9.81 * angle.to_radians().sin();
+        assert!(
+            acceleration > 0.0 && acceleration < rolling,
+            "{model} {angle}: {acceleration}"
+        );
+        let run = project
+            .project_dir()
+            .join("runs/contact-models")
+            .join(job["name"].as_str().unwrap());
+        let rendered = std::fs::read_to_string(run.join("in.plane")).unwrap();
+        assert!(rendered.contains(&format!("pair_style      gran model {model} tangential")));
+        assert_eq!(
+            rendered.contains("characteristicVelocity"),
+            model == "hooke"
+        );
+        models
+            .entry(model)
+            .or_insert_with(Vec::new)
+            .push((angle, speed));
+    }
+    // Both models: three angles each, the layer faster on a steeper plane.
+    assert_eq!(models.len(), 2, "{models:?}");
+    for runs in models.values_mut() {
+        runs.sort_by(|a, b| a.0.total_cmp(&b.0));
+        assert_eq!(runs.len(), 3);
+        assert!(runs[0].1 < runs[1].1 && runs[1].1 < runs[2].1, "{runs:?}");
+    }
+    // The surface carries the model as an indicator term.
+    let fit = &status["rounds"][0]["fits"][0];
+    assert!(fit["error"].is_null(), "{fit:#}");
+}

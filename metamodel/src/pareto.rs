@@ -230,6 +230,15 @@ impl Solver<'_, '_> {
         const RHO: f64 = 100.0;
         let scaled = |j: usize, x: &[f64], cap: f64| (self.signed[j](x) - cap) / self.scales[j];
         let mut lambda = vec![0.0; caps.len()];
+        // The text factors stay at the levels the multistart chose: polishing is local.
+        let mut bounds = self.bounds.clone();
+        for (i, &count) in self.bounds.levels.iter().enumerate() {
+            if count > 0 {
+                bounds.lower[i] = x[i];
+                bounds.upper[i] = x[i];
+            }
+        }
+        bounds.levels.clear();
         for _ in 0..100 {
             let lagrangian = |x: &[f64]| {
                 let mut value = self.signed[target](x) / self.scales[target];
@@ -239,7 +248,7 @@ impl Solver<'_, '_> {
                 }
                 value
             };
-            x = projected_descent(&lagrangian, self.bounds, x);
+            x = projected_descent(&lagrangian, &bounds, x);
             let mut change = 0.0f64;
             for (&(j, cap), l) in caps.iter().zip(&mut lambda) {
                 let updated = (*l + RHO * scaled(j, &x, cap)).max(0.0);
@@ -583,6 +592,25 @@ mod tests {
             front,
             pareto_front(&[&f1, &f2], &[MIN, MIN], &BoxBounds::coded(1), 21, 5)
         );
+    }
+
+    #[test]
+    fn a_text_factor_on_the_front_stays_on_its_levels() {
+        // x numeric, m text with 2 levels; level 2 (coded 1) lowers both objectives, so
+        // the whole front is at level 2 and between the parabolas' minima in x.
+        let level = |x: &[f64]| crate::levels::level_of(x[1], 2) as f64;
+        let f1 = move |x: &[f64]| (x[0] + 0.5).powi(2) - level(x);
+        let f2 = move |x: &[f64]| (x[0] - 0.7).powi(2) - level(x);
+        let bounds = BoxBounds::coded(2).with_levels(&[0, 2]);
+        let front = pareto_front(&[&f1, &f2], &[MIN, MIN], &bounds, 11, 3);
+        assert!(front.len() >= 8, "{} points", front.len());
+        for point in &front {
+            assert_eq!(point.x[1], 1.0, "{point:?}");
+            assert!(
+                (-0.5 - 1e-3..=0.7 + 1e-3).contains(&point.x[0]),
+                "{point:?}"
+            );
+        }
     }
 
     #[test]

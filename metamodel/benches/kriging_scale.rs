@@ -92,7 +92,8 @@ fn sklearn(
     write("y.csv", &y.iter().map(|v| vec![*v]).collect::<Vec<_>>());
     write("t.csv", test);
     write("u.csv", &truth.iter().map(|v| vec![*v]).collect::<Vec<_>>());
-    let script = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("benches/sklearn_reference.py");
+    let script =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("benches/sklearn_reference.py");
     let kernel = match kernel {
         Kernel::SquaredExponential => "se",
         Kernel::Matern52 => "matern52",
@@ -105,11 +106,17 @@ fn sklearn(
         .ok()?;
     let _ = std::fs::remove_dir_all(&dir);
     if !output.status.success() {
-        eprintln!("scikit-learn failed: {}", String::from_utf8_lossy(&output.stderr));
+        eprintln!(
+            "scikit-learn failed: {}",
+            String::from_utf8_lossy(&output.stderr)
+        );
         return None;
     }
     let text = String::from_utf8_lossy(&output.stdout);
-    let v: Vec<f64> = text.split_whitespace().filter_map(|s| s.parse().ok()).collect();
+    let v: Vec<f64> = text
+        .split_whitespace()
+        .filter_map(|s| s.parse().ok())
+        .collect();
     (v.len() == 3).then(|| (v[0], v[1], v[2]))
 }
 
@@ -119,12 +126,30 @@ fn main() {
         println!("scikit-learn not found (python3 -c 'import sklearn'): the crate's figures alone");
     }
     let cases = [
-        Case { name: "Branin", f: branin, k: 2 },
-        Case { name: "Hartmann-6", f: hartmann6, k: 6 },
+        Case {
+            name: "Branin",
+            f: branin,
+            k: 2,
+        },
+        Case {
+            name: "Hartmann-6",
+            f: hartmann6,
+            k: 6,
+        },
     ];
     println!(
         "{:<11} {:>4} {:<7} {:>11} {:>9} {:>9}   {:>11} {:>9} {:>9}   {:>6} {:>6}",
-        "function", "n", "kernel", "rmse", "loglik", "fit s", "sk rmse", "sk loglik", "sk fit s", "rmse×", "speed×"
+        "function",
+        "n",
+        "kernel",
+        "rmse",
+        "loglik",
+        "fit s",
+        "sk rmse",
+        "sk loglik",
+        "sk fit s",
+        "rmse×",
+        "speed×"
     );
     for case in &cases {
         let mut rng = ChaCha8Rng::seed_from_u64(11);
@@ -134,7 +159,11 @@ fn main() {
         let truth: Vec<f64> = test.iter().map(|p| (case.f)(p)).collect();
         for n in [30usize, 100, 300] {
             let x = Design::build(
-                &DesignKind::LatinHypercube { samples: n, seed: 3, candidates: 20 },
+                &DesignKind::LatinHypercube {
+                    samples: n,
+                    seed: 3,
+                    candidates: 20,
+                },
                 case.k,
             )
             .unwrap()

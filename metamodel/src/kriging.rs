@@ -29,10 +29,11 @@
 //! `ln σ²` joins the searched parameters and the full likelihood
 //! `−½ [n ln σ² + ln|K| + Q/σ² + n ln 2π]` is maximised instead (R&W §5.4.1).
 //!
-//! The search is a bounded Nelder–Mead simplex in log space from several starts
-//! (the first at a default, the rest from a seeded Latin hypercube over a central part
-//! of the box). Every start gets a short budget; the best (and the runner-up when it is
-//! within one log-likelihood unit) is then restarted and run to convergence. Log length scales are bounded to `[10⁻², 10²]` coded units.
+//! The search is a bounded quasi-Newton (projected BFGS) in log space with the
+//! likelihood's analytic gradient ([`crate::kriging_search`]), from several starts (the
+//! first at a default, the rest from a seeded Latin hypercube over a central part of the
+//! box), every start run to convergence, in parallel; the best wins. Log length scales
+//! are bounded to `[10⁻², 10²]` coded units.
 //!
 //! # Prediction
 //!
@@ -66,6 +67,9 @@ use nalgebra::{Cholesky, DMatrix, DVector, Dyn};
 use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
+
+use crate::kriging_search::{bounded_bfgs, Likelihood};
 
 /// The correlation function of the Gaussian process.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -268,9 +272,9 @@ pub struct Kriging {
 
 /// The factored kriging system for one set of hyperparameters (standardised units).
 #[derive(Debug, Clone)]
-struct Factor {
+pub(crate) struct Factor {
     /// Lower Cholesky factor of `K = R + (g + jitter) I`.
-    l: DMatrix<f64>,
+    pub(crate) l: DMatrix<f64>,
     /// Jitter added to the diagonal (ratio to the process variance).
     jitter: f64,
     /// `L⁻¹F`.
@@ -280,14 +284,14 @@ struct Factor {
     /// GLS trend coefficients.
     beta: DVector<f64>,
     /// `L⁻¹(y − Fβ̂)`.
-    whitened_residual: DVector<f64>,
+    pub(crate) whitened_residual: DVector<f64>,
     /// `ln |K|`.
     log_det: f64,
 }
 
 impl Factor {
     /// `Q = (y − Fβ̂)ᵀK⁻¹(y − Fβ̂)`.
-    fn quadratic_form(&self) -> f64 {
+    pub(crate) fn quadratic_form(&self) -> f64 {
         self.whitened_residual.norm_squared()
     }
 }
@@ -434,7 +438,7 @@ fn cholesky_with_jitter(k: &DMatrix<f64>) -> Result<(DMatrix<f64>, f64), Kriging
 
 /// Builds and factors the kriging system for standardised responses `ys` at `points`
 /// (row-major, `k` columns), given inverse length scales and the noise ratio `g`.
-fn factorise(
+pub(crate) fn factorise(
     points: &[f64],
     k: usize,
     ys: &[f64],
@@ -506,7 +510,7 @@ fn factorise(
 
 /// `−ln L` (standardised units) for process variance `s2` and the factor of
 /// `K = R + (τ²/s2) I`.
-fn negative_log_likelihood(factor: &Factor, n: usize, s2: f64) -> f64 {
+pub(crate) fn negative_log_likelihood(factor: &Factor, n: usize, s2: f64) -> f64 {
     let n = n as f64;
     0.5 * (n * s2.ln()
         + factor.log_det
@@ -516,7 +520,7 @@ fn negative_log_likelihood(factor: &Factor, n: usize, s2: f64) -> f64 {
 
 /// What the likelihood search varies besides the log length scales.
 #[derive(Debug, Clone, Copy)]
-enum NoiseSearch {
+pub(crate) enum NoiseSearch {
     /// The noise ratio `g` is fixed (0 for an interpolating fit); σ² concentrated out.
     FixedRatio(f64),
     /// `ln g` is searched; σ² concentrated out.
@@ -578,34 +582,22 @@ impl Kriging {
                 default_start.push((1.0 - tau2).max(0.1).ln());
             }
         }
-        let objective = |theta: &[f64]| -> f64 {
-            let inverse: Vec<f64> = theta[..k].iter().map(|t| (-t).exp()).collect();
-            let (ratio, s2) = match search {
-                NoiseSearch::FixedRatio(g) => (g, None),
-                NoiseSearch::FittedRatio => (theta[k].exp(), None),
-                NoiseSearch::FixedVariance(tau2) => {
-                    let s2 = theta[k].exp();
-                    (tau2 / s2, Some(s2))
-                }
-            };
-            match factorise(&points, k, &ys, kernel, trend, &inverse, ratio) {
-                Ok(factor) => {
-                    let s2 = s2.unwrap_or_else(|| (factor.quadratic_form() / n as f64).max(1e-300));
-                    negative_log_likelihood(&factor, n, s2)
-                }
-                Err(_) => f64::INFINITY,
-            }
+        let likelihood = Likelihood {
+            points: &points,
+            k,
+            ys: &ys,
+            kernel,
+            trend,
+            search,
         };
-        let best = multistart_nelder_mead(
-            &objective,
+        let starts = start_points(
             &default_start,
             &start_lower,
             &start_upper,
-            &lower,
-            &upper,
             options.starts.max(1),
             options.seed,
         );
+        let best = multistart_bfgs(&likelihood, &starts, &lower, &upper);
 
         let inverse: Vec<f64> = best[..k].iter().map(|t| (-t).exp()).collect();
         let (ratio, fixed_s2) = match search {
@@ -932,21 +924,16 @@ fn fixed_noise(v: f64, y_std: f64) -> Result<NoiseSearch, KrigingError> {
     })
 }
 
-/// Minimises `f` on the box `[lower, upper]`: a short Nelder–Mead from a default
-/// start and `starts − 1` Latin-hypercube starts in `[start_lower, start_upper]`,
-/// then the best two restarted to convergence.
-#[allow(clippy::too_many_arguments)]
-fn multistart_nelder_mead(
-    f: &dyn Fn(&[f64]) -> f64,
+/// The starts of the likelihood search: `default_start`, then `starts − 1` points of
+/// a seeded Latin hypercube in `[start_lower, start_upper]`.
+fn start_points(
     default_start: &[f64],
     start_lower: &[f64],
     start_upper: &[f64],
-    lower: &[f64],
-    upper: &[f64],
     starts: usize,
     seed: u64,
-) -> Vec<f64> {
-    let d = lower.len();
+) -> Vec<Vec<f64>> {
+    let d = default_start.len();
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let mut initial = vec![default_start.to_vec()];
     let others = starts - 1;
@@ -967,30 +954,25 @@ fn multistart_nelder_mead(
                 .collect::<Vec<f64>>()
         }));
     }
-    let step: Vec<f64> = (0..d).map(|j| (upper[j] - lower[j]) / 16.0).collect();
-    let short = Stop {
-        max_evaluations: 25 * (d + 1),
-        f_tolerance: 1e-6,
-        x_tolerance: 1e-3,
-    };
-    let mut results: Vec<(Vec<f64>, f64)> = initial
-        .iter()
-        .map(|s| nelder_mead(f, s, &step, lower, upper, short))
+    initial
+}
+
+/// The best of a bounded BFGS search of `likelihood` from every start, each run to
+/// convergence (see [`crate::kriging_search`]). The starts run in parallel; the
+/// result does not depend on the number of threads (ties go to the earlier start).
+fn multistart_bfgs(
+    likelihood: &Likelihood<'_>,
+    starts: &[Vec<f64>],
+    lower: &[f64],
+    upper: &[f64],
+) -> Vec<f64> {
+    let f = |theta: &[f64], gradient: bool| likelihood.value_and_gradient(theta, gradient);
+    let found: Vec<(Vec<f64>, f64)> = starts
+        .par_iter()
+        .map(|start| bounded_bfgs(&f, start, lower, upper, 200))
         .collect();
-    results.sort_by(|a, b| a.1.total_cmp(&b.1));
-    let long = Stop {
-        max_evaluations: 200 * (d + 1),
-        f_tolerance: 1e-10,
-        x_tolerance: 1e-5,
-    };
-    let small_step: Vec<f64> = step.iter().map(|s| s * 0.5).collect();
-    // The runner-up is polished too when it is within one log-likelihood unit of the
-    // best, since it may still overtake it.
-    let contenders = 1 + usize::from(results.len() > 1 && results[1].1 - results[0].1 < 1.0);
-    results
-        .iter()
-        .take(contenders)
-        .map(|(x, _)| nelder_mead(f, x, &small_step, lower, upper, long))
+    found
+        .into_iter()
         .min_by(|a, b| a.1.total_cmp(&b.1))
         .map(|(x, _)| x)
         .expect("at least one start")

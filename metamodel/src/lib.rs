@@ -12,6 +12,7 @@ pub mod design;
 pub mod fit;
 pub mod improvement;
 pub mod kriging;
+mod kriging_search;
 pub mod lack_of_fit;
 pub mod levels;
 pub mod optimise;

@@ -151,6 +151,10 @@ pub struct KrigingOptions {
     pub starts: usize,
     /// Seed of the starts' generator; the same seed gives the same fit.
     pub seed: u64,
+    /// Length scales (coded units, one per factor) of an earlier fit of the same
+    /// response, such as the previous round's: tried as one more start, since the
+    /// likelihood of a few more runs is usually highest near where it was.
+    pub previous_length_scales: Option<Vec<f64>>,
 }
 
 impl Default for KrigingOptions {
@@ -162,6 +166,7 @@ impl Default for KrigingOptions {
             nugget: Nugget::FromReplicates,
             starts: 8,
             seed: 0,
+            previous_length_scales: None,
         }
     }
 }
@@ -590,13 +595,22 @@ impl Kriging {
             trend,
             search,
         };
-        let starts = start_points(
+        let mut starts = start_points(
             &default_start,
             &start_lower,
             &start_upper,
             options.starts.max(1),
             options.seed,
         );
+        if let Some(previous) = options
+            .previous_length_scales
+            .as_ref()
+            .filter(|l| l.len() == k && l.iter().all(|v| v.is_finite() && *v > 0.0))
+        {
+            let mut start: Vec<f64> = previous.iter().map(|l| l.ln()).collect();
+            start.extend_from_slice(&default_start[k..]);
+            starts.push(start);
+        }
         let best = multistart_bfgs(&likelihood, &starts, &lower, &upper);
 
         let inverse: Vec<f64> = best[..k].iter().map(|t| (-t).exp()).collect();

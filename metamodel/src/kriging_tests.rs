@@ -401,3 +401,40 @@ fn bad_input_is_refused_with_what_to_do() {
         "{error}"
     );
 }
+
+#[test]
+fn a_dense_smooth_sample_gets_long_length_scales_and_an_earlier_fit_is_a_start() {
+    // Branin-like smooth surface on 100 runs in 2 factors: the likelihood wants long
+    // length scales and almost no nugget (the fit this once missed by capping them).
+    let x = lhs(100, 2, 3);
+    let f = |p: &[f64]| {
+        let (a, b) = (7.5 * (p[0] + 1.0) - 5.0, 7.5 * (p[1] + 1.0));
+        (b - 0.129 * a * a + 1.59 * a - 6.0).powi(2) + 9.6 * a.cos() + 10.0
+    };
+    let y: Vec<f64> = x.iter().map(|p| f(p)).collect();
+    let squared = options(Kernel::SquaredExponential, Trend::Constant, Nugget::Fitted);
+    let model = Kriging::fit(&x, &y, &squared).unwrap();
+    assert!(
+        model.noise_variance() / model.process_variance() < 1e-11,
+        "nugget ratio {}",
+        model.noise_variance() / model.process_variance()
+    );
+    let probe = lhs(200, 2, 99);
+    let rmse = (probe
+        .iter()
+        .map(|p| (model.predict(p) - f(p)).powi(2))
+        .sum::<f64>()
+        / 200.0)
+        .sqrt();
+    // 3.6e-3 here; a nugget floor of 1e-10 and a condition cap of 1e10 gave 3.2e-2.
+    assert!(rmse < 1e-4 * spread(&y), "held-out RMSE {rmse}");
+    // One start alone, with the full fit's length scales as the earlier fit's: at least
+    // as likely as the full search.
+    let warm = KrigingOptions {
+        starts: 1,
+        previous_length_scales: Some(model.length_scales().to_vec()),
+        ..squared
+    };
+    let again = Kriging::fit(&x, &y, &warm).unwrap();
+    assert!(again.log_likelihood() >= model.log_likelihood() - 1e-3);
+}

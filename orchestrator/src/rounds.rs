@@ -160,16 +160,21 @@ async fn analyse(
         .collect();
     let data = observed(store, study_id, round, &with_intervals).await?;
     let options = study.metamodel.kriging_options(study.seed);
+    let previous = previous_length_scales(store, study_id, round, &ranges).await?;
     let mut fits = Vec::new();
     for response in &responses {
         let observed = &data[response];
         let (x, y) = (&observed.design.0, &observed.design.1);
+        let options = KrigingOptions {
+            previous_length_scales: previous.get(response).cloned(),
+            ..options.clone()
+        };
         let options = match noise_from_intervals(x, y, &data[&interval_name(response)]) {
             Some(variance) => KrigingOptions {
                 nugget: Nugget::Fixed(variance),
-                ..options.clone()
+                ..options
             },
-            None => options.clone(),
+            None => options,
         };
         let choice = choose(
             study.metamodel.model,
@@ -336,6 +341,41 @@ async fn previous_optimum(
         .find(|r| r.round == round - 1)
         .and_then(|r| r.optimum)
         .map(|o| o.2))
+}
+
+/// The length scales of the previous round's Kriging surfaces, by response, in the
+/// coded units of this round's box `ranges`: each likelihood search starts there too.
+async fn previous_length_scales(
+    store: &Store,
+    study_id: i64,
+    round: i64,
+    ranges: &[orch_metamodel::FactorRange],
+) -> Result<HashMap<String, Vec<f64>>, StoreError> {
+    if round == 0 {
+        return Ok(HashMap::new());
+    }
+    let Some(before) = store
+        .rounds(study_id)
+        .await?
+        .into_iter()
+        .find(|r| r.round == round - 1 && r.ranges.len() == ranges.len())
+    else {
+        return Ok(HashMap::new());
+    };
+    let mut out = HashMap::new();
+    for fit in &before.fits {
+        let spec = fit.spec.as_deref().and_then(surfaces::spec_from_json);
+        if let Some(orch_metamodel::surrogate::ModelSpec::Kriging { length_scales, .. }) = spec {
+            // A coded unit is half the box's width: rescale to this round's box.
+            let rescaled = length_scales
+                .iter()
+                .zip(before.ranges.iter().zip(ranges))
+                .map(|(l, (old, new))| l * (old.max - old.min) / (new.max - new.min))
+                .collect();
+            out.insert(fit.response.clone(), rescaled);
+        }
+    }
+    Ok(out)
 }
 
 /// The response that holds the half-width of `response`'s 95 % interval in each run.

@@ -446,21 +446,38 @@ pub fn multistart(f: &dyn Fn(&[f64]) -> f64, bounds: &BoxBounds, seed: u64) -> O
         .expect("at least one start")
 }
 
+/// The gradient of `f` at `x` by differences of step 10⁻⁶ that never leave `bounds`:
+/// central inside, one-sided at a bound (a surface continued outside the box may be
+/// undefined there, as `√x` below 0), zero along a coordinate the box holds fixed.
+pub(crate) fn gradient_in_box(
+    f: &dyn Fn(&[f64]) -> f64,
+    x: &[f64],
+    bounds: &BoxBounds,
+) -> Vec<f64> {
+    let h = 1e-6;
+    let mut probe = x.to_vec();
+    (0..x.len())
+        .map(|i| {
+            let up = (x[i] + h).min(bounds.upper[i]);
+            let down = (x[i] - h).max(bounds.lower[i]);
+            if up <= down {
+                return 0.0;
+            }
+            probe[i] = up;
+            let f_up = f(&probe);
+            probe[i] = down;
+            let f_down = f(&probe);
+            probe[i] = x[i];
+            (f_up - f_down) / (up - down)
+        })
+        .collect()
+}
+
 fn descend(f: &dyn Fn(&[f64]) -> f64, bounds: &BoxBounds, mut x: Vec<f64>) -> Optimum {
-    let k = x.len();
     let mut value = f(&x);
     let mut step = 0.5;
     for _ in 0..500 {
-        let h = 1e-6;
-        let gradient: Vec<f64> = (0..k)
-            .map(|i| {
-                let mut up = x.clone();
-                let mut down = x.clone();
-                up[i] += h;
-                down[i] -= h;
-                (f(&up) - f(&down)) / (2.0 * h)
-            })
-            .collect();
+        let gradient = gradient_in_box(f, &x, bounds);
         let norm = gradient.iter().map(|g| g * g).sum::<f64>().sqrt();
         if norm < 1e-12 {
             break;

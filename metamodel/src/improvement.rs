@@ -120,12 +120,42 @@ pub fn expected_improvement(mean: f64, std: f64, best: f64, goal: Goal) -> f64 {
     (improvement * normal_cdf(z) + std * normal_pdf(z)).max(0.0)
 }
 
+/// The smallest distance between two points of a batch or between a proposed point and
+/// a run, as a fraction of the box (each coordinate scaled by its range): two runs
+/// closer than this teach a surrogate almost nothing the one did not.
+pub const MIN_SEPARATION: f64 = 0.01;
+
+/// The probability that constraints hold at a coded point, by which expected
+/// improvement is weighted (1 everywhere for an unconstrained objective).
+pub type Feasibility<'a> = &'a dyn Fn(&[f64]) -> f64;
+
+/// The probability that a response with predicted mean `mean` and standard error
+/// `std` lies in `[min, max]` (either end may be open), taking it as normal; 1 or 0
+/// by the mean alone when `std` is 0 or unknown.
+pub fn probability_within(mean: f64, std: Option<f64>, min: Option<f64>, max: Option<f64>) -> f64 {
+    match std.filter(|s| s.is_finite() && *s > 0.0) {
+        Some(s) => {
+            let upper = max.map_or(1.0, |m| normal_cdf((m - mean) / s));
+            let lower = min.map_or(0.0, |m| normal_cdf((m - mean) / s));
+            (upper - lower).max(0.0)
+        }
+        None => {
+            let inside = min.is_none_or(|m| mean >= m) && max.is_none_or(|m| mean <= m);
+            f64::from(u8::from(inside))
+        }
+    }
+}
+
 /// Proposes `batch` coded points in `bounds` by the kriging believer: each maximises
 /// the expected improvement of a model with `model`'s hyperparameters fitted to `x`,
-/// `y` and the points proposed before it (each believed to have the model's mean).
-/// `seed` seeds the candidate points; `options.starts` is how many of the best
-/// candidates are polished by a local search. Fewer than `batch` points are returned
-/// only when a believed point makes the model ill-conditioned beyond repair.
+/// `y` and the points proposed before it (each believed to have the model's mean),
+/// weighted by `feasible`, the probability that the objective's constraints hold
+/// there (Schonlau, Welch & Jones 1998; Gardner et al. 2014). No point lies closer
+/// than [`MIN_SEPARATION`] of the box to a run or to another proposed point. `seed`
+/// seeds the candidate points; `options.starts` is how many of the best candidates are
+/// polished by a local search. Fewer than `batch` points are returned only when a
+/// believed point makes the model ill-conditioned beyond repair or no candidate is far
+/// enough from the runs.
 #[allow(clippy::too_many_arguments)]
 pub fn propose_batch(
     model: &Kriging,
@@ -136,6 +166,7 @@ pub fn propose_batch(
     goal: Goal,
     seed: u64,
     options: &KrigingOptions,
+    feasible: Feasibility<'_>,
 ) -> Vec<Vec<f64>> {
     let k = bounds.lower.len();
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
@@ -151,8 +182,22 @@ pub fn propose_batch(
         };
         let negative_ei = |p: &[f64]| {
             let std = current.predict_variance(p).sqrt();
-            -expected_improvement(current.predict(p), std, best, goal)
+            -expected_improvement(current.predict(p), std, best, goal) * feasible(p)
         };
+        let scaled_distance = |a: &[f64], b: &[f64]| {
+            (0..k)
+                .map(|j| {
+                    let width = bounds.upper[j] - bounds.lower[j];
+                    if width > 0.0 {
+                        ((a[j] - b[j]) / width).powi(2)
+                    } else {
+                        0.0
+                    }
+                })
+                .sum::<f64>()
+                .sqrt()
+        };
+        let apart = |p: &[f64]| xs.iter().all(|q| scaled_distance(p, q) >= MIN_SEPARATION);
         let mut candidates: Vec<(Vec<f64>, f64)> = (0..n_candidates)
             .map(|_| {
                 let p: Vec<f64> = (0..k)
@@ -162,7 +207,11 @@ pub fn propose_batch(
                 (p, v)
             })
             .collect();
+        candidates.retain(|(p, _)| apart(p));
         candidates.sort_by(|a, b| a.1.total_cmp(&b.1));
+        if candidates.is_empty() {
+            break;
+        }
         let step: Vec<f64> = (0..k)
             .map(|j| 0.05 * (bounds.upper[j] - bounds.lower[j]))
             .collect();
@@ -184,6 +233,7 @@ pub fn propose_batch(
                 )
             })
             .chain(std::iter::once(candidates[0].clone()))
+            .filter(|(p, _)| apart(p))
             .min_by(|a, b| a.1.total_cmp(&b.1))
             .map(|(p, _)| p)
             .expect("at least one candidate");
@@ -283,6 +333,55 @@ mod tests {
     /// hyperparameters on all data every round. The best run must be within 1 % of
     /// the global minimum 0.397887.
     #[test]
+    fn a_constrained_batch_stays_where_the_constraint_likely_holds_and_apart() {
+        use crate::design::{Design, DesignKind};
+        // Minimise x0 + 0.3 sin(3 x1) subject to x1 ≤ −0.2, the constraint known with a
+        // standard error of 0.05: expected improvement alone would go to x1 = −0.52 or
+        // 1; weighted by the probability of feasibility it stays below −0.1.
+        let x = Design::build(
+            &DesignKind::LatinHypercube {
+                samples: 15,
+                seed: 2,
+                candidates: 50,
+            },
+            2,
+        )
+        .unwrap()
+        .points;
+        let f = |p: &[f64]| p[0] + 0.3 * (3.0 * p[1]).sin();
+        let y: Vec<f64> = x.iter().map(|p| f(p)).collect();
+        let options = KrigingOptions::default();
+        let model = Kriging::fit(&x, &y, &options).unwrap();
+        let feasible = |p: &[f64]| probability_within(p[1], Some(0.05), None, Some(-0.2));
+        let bounds = BoxBounds::coded(2);
+        let batch = propose_batch(
+            &model,
+            &x,
+            &y,
+            &bounds,
+            6,
+            Goal::Minimise,
+            3,
+            &options,
+            &feasible,
+        );
+        assert_eq!(batch.len(), 6);
+        for p in &batch {
+            assert!(p[1] < -0.1, "{p:?} is likely infeasible");
+        }
+        // No two points, and no point and run, closer than 1 % of the box.
+        let all: Vec<&Vec<f64>> = x.iter().chain(&batch).collect();
+        for (i, a) in all.iter().enumerate() {
+            for b in &all[..i] {
+                let d = ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt() / 2.0;
+                assert!(d >= MIN_SEPARATION - 1e-12, "{a:?} and {b:?}: {d}");
+            }
+        }
+        assert!((probability_within(0.0, Some(1.0), Some(-1.96), Some(1.96)) - 0.95).abs() < 1e-4);
+        assert_eq!(probability_within(0.0, None, None, Some(-1.0)), 0.0);
+    }
+
+    #[test]
     fn expected_improvement_finds_the_minimum_of_branin() {
         use crate::design::{Design, DesignKind};
         let mut x = Design::build(
@@ -303,7 +402,17 @@ mod tests {
                 ..KrigingOptions::default()
             };
             let model = Kriging::fit(&x, &y, &options).unwrap();
-            let batch = propose_batch(&model, &x, &y, &bounds, 2, Goal::Minimise, round, &options);
+            let batch = propose_batch(
+                &model,
+                &x,
+                &y,
+                &bounds,
+                2,
+                Goal::Minimise,
+                round,
+                &options,
+                &|_| 1.0,
+            );
             assert_eq!(batch.len(), 2);
             for p in batch {
                 assert!(p.iter().all(|v| (-1.0..=1.0).contains(v)));
@@ -312,7 +421,10 @@ mod tests {
             }
         }
         let best = y.iter().copied().fold(f64::INFINITY, f64::min);
-        assert!(best < 0.397_887 * 1.01, "best of {} runs: {best}", y.len());
+        // Within 6 %: no run may come closer than 1 % of the box (0.15 of Branin's
+        // units) to another, so EI cannot refine the last digits by clustering runs
+        // (before that rule: within 1 %; with it, 0.4176 here).
+        assert!(best < 0.397_887 * 1.06, "best of {} runs: {best}", y.len());
         assert!(best >= 0.397_887 - 1e-6);
     }
 }

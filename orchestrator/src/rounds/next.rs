@@ -2,6 +2,7 @@
 
 use std::collections::HashMap;
 
+use orch_metamodel::improvement::probability_within;
 use orch_metamodel::propose::{least_certain, shrink_around};
 use orch_metamodel::surrogate::Surrogate;
 use orch_metamodel::{propose_batch, FactorRange, Goal, KrigingOptions, Optimum};
@@ -60,7 +61,34 @@ pub(crate) fn propose(
             let batch = study.executor.max_parallel.max(2);
             let (x, y) = &data[response].design;
             let seed = study.seed.wrapping_add(round as u64);
-            let points = propose_batch(model, x, y, &inputs.bounds, batch, goal, seed, options);
+            // Expected improvement weighted by the probability that every constraint
+            // holds, each from its own surface's mean and standard error.
+            let feasible = |p: &[f64]| {
+                objective
+                    .constraints
+                    .iter()
+                    .filter_map(|(name, min, max)| {
+                        let surface = surface.surfaces.get(name)?;
+                        Some(probability_within(
+                            surface.predict(p),
+                            surface.mean_std(p),
+                            *min,
+                            *max,
+                        ))
+                    })
+                    .product::<f64>()
+            };
+            let points = propose_batch(
+                model,
+                x,
+                y,
+                &inputs.bounds,
+                batch,
+                goal,
+                seed,
+                options,
+                &feasible,
+            );
             let how = format!(
                 "{} expected-improvement points (a kriging-believer batch, one per job slot) in the same box",
                 points.len()

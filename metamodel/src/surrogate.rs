@@ -671,6 +671,19 @@ mod tests {
         (0..k).map(|i| format!("x{i}")).collect()
     }
 
+    /// The automatic choice in the Legendre basis over `k` numeric factors.
+    fn auto(k: usize, x: &[Vec<f64>], y: &[f64]) -> Result<Choice, String> {
+        choose(
+            ModelChoice::Auto,
+            BasisKind::Legendre,
+            &names(k),
+            &[],
+            x,
+            y,
+            &KrigingOptions::default(),
+        )
+    }
+
     fn lhs(k: usize, n: usize, seed: u64) -> Vec<Vec<f64>> {
         Design::build(
             &DesignKind::LatinHypercube {
@@ -692,16 +705,7 @@ mod tests {
             .map(|i| vec![-1.0 + 2.0 * i as f64 / (n - 1) as f64])
             .collect();
         let y: Vec<f64> = x.iter().map(|p| 1.0 + p[0] - 0.5 * p[0] * p[0]).collect();
-        let choice = choose(
-            ModelChoice::Auto,
-            BasisKind::Legendre,
-            &names(1),
-            &[],
-            &x,
-            &y,
-            &KrigingOptions::default(),
-        )
-        .unwrap();
+        let choice = auto(1, &x, &y).unwrap();
         let kriging = choice.candidates.last().unwrap();
         assert!(kriging.name.starts_with("kriging"), "{}", kriging.name);
         assert_eq!(kriging.loo_rmse, None);
@@ -786,16 +790,7 @@ mod tests {
             .iter()
             .map(|p| 1.0 + 2.0 * p[0] - p[1] + noise.sample(&mut rng))
             .collect();
-        let choice = choose(
-            ModelChoice::Auto,
-            BasisKind::Legendre,
-            &names(2),
-            &[],
-            &x,
-            &y,
-            &KrigingOptions::default(),
-        )
-        .unwrap();
+        let choice = auto(2, &x, &y).unwrap();
         assert_eq!(choice.candidates.len(), 4);
         assert_eq!(choice.chosen, 0, "{:?}", choice.candidates);
         assert!(choice.by_prognosis);
@@ -822,16 +817,7 @@ mod tests {
                 .iter()
                 .map(|p| truth(p) + noise.sample(&mut rng))
                 .collect();
-            let choice = choose(
-                ModelChoice::Auto,
-                BasisKind::Legendre,
-                &names(3),
-                &[],
-                &x,
-                &y,
-                &KrigingOptions::default(),
-            )
-            .unwrap();
+            let choice = auto(3, &x, &y).unwrap();
             let name = choice.candidates[choice.chosen].name.clone();
             *picks
                 .entry(name.split(',').next().unwrap().to_string())
@@ -851,16 +837,7 @@ mod tests {
         };
         let x = lhs(2, 30, 6);
         let y: Vec<f64> = x.iter().map(|p| branin(p)).collect();
-        let choice = choose(
-            ModelChoice::Auto,
-            BasisKind::Legendre,
-            &names(2),
-            &[],
-            &x,
-            &y,
-            &KrigingOptions::default(),
-        )
-        .unwrap();
+        let choice = auto(2, &x, &y).unwrap();
         assert!(
             matches!(choice.surrogate, Surrogate::Kriging { .. }),
             "{:?}",
@@ -874,16 +851,7 @@ mod tests {
         let x = lhs(2, 30, 2);
         let f = |p: &[f64]| (3.0 * p[0]).sin() * (2.0 * p[1]).cos() * 2.0 + p[0] * p[0];
         let y: Vec<f64> = x.iter().map(|p| f(p)).collect();
-        let choice = choose(
-            ModelChoice::Auto,
-            BasisKind::Legendre,
-            &names(2),
-            &[],
-            &x,
-            &y,
-            &KrigingOptions::default(),
-        )
-        .unwrap();
+        let choice = auto(2, &x, &y).unwrap();
         assert!(
             matches!(choice.surrogate, Surrogate::Kriging { .. }),
             "{:?}",

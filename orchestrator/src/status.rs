@@ -1151,28 +1151,56 @@ pub fn fits_report(round: &StoredRound, factors: &[String], runs: &[Run]) -> Str
     out
 }
 
-/// A Kriging surface's hyperparameters, from its stored spec.
+/// A Kriging surface's hyperparameters, from its stored spec: one model's, or each
+/// combination of levels' for a surface with text factors.
 fn kriging_lines(fit: &StoredFit, factors: &[String]) -> String {
-    let Some(orch_metamodel::surrogate::ModelSpec::Kriging {
-        length_scales,
-        process_variance,
-        noise_variance,
-        ..
-    }) = fit.spec.as_deref().and_then(surfaces::spec_from_json)
-    else {
-        return String::new();
+    use orch_metamodel::surrogate::ModelSpec;
+    let one = |spec: &ModelSpec, numeric: &[&String], indent: &str| -> String {
+        let ModelSpec::Kriging {
+            length_scales,
+            process_variance,
+            noise_variance,
+            ..
+        } = spec
+        else {
+            return String::new();
+        };
+        let scales: Vec<String> = numeric
+            .iter()
+            .zip(length_scales)
+            .map(|(name, l)| format!("{name} {l:.3}"))
+            .collect();
+        format!(
+            "{indent}length scales (coded units; small = the response changes fast along it): {}\n{indent}process std {:.4e}, noise std {:.4e}\n",
+            scales.join(", "),
+            process_variance.sqrt(),
+            noise_variance.sqrt()
+        )
     };
-    let scales: Vec<String> = factors
-        .iter()
-        .zip(&length_scales)
-        .map(|(name, l)| format!("{name} {l:.3}"))
-        .collect();
-    format!(
-        "  length scales (coded units; small = the response changes fast along it): {}\n  process std {:.4e}, noise std {:.4e}\n",
-        scales.join(", "),
-        process_variance.sqrt(),
-        noise_variance.sqrt()
-    )
+    match fit.spec.as_deref().and_then(surfaces::spec_from_json) {
+        Some(spec @ ModelSpec::Kriging { .. }) => {
+            one(&spec, &factors.iter().collect::<Vec<_>>(), "  ")
+        }
+        Some(ModelSpec::KrigingPerLevel { levels, models }) => {
+            let numeric: Vec<&String> = factors
+                .iter()
+                .enumerate()
+                .filter(|(i, _)| levels.get(*i).is_none_or(|&l| l == 0))
+                .map(|(_, f)| f)
+                .collect();
+            models
+                .iter()
+                .map(|(combination, spec)| {
+                    format!(
+                        "  at {}:\n{}",
+                        orch_metamodel::per_level::combination_name(combination),
+                        one(spec, &numeric, "    ")
+                    )
+                })
+                .collect()
+        }
+        _ => String::new(),
+    }
 }
 
 /// The candidates of the model choice, the lack-of-fit test and the Sobol indices.
@@ -1180,7 +1208,7 @@ fn choice_lines(fit: &StoredFit, factors: &[String]) -> String {
     let mut out = String::new();
     if fit.candidates.len() > 1 {
         out.push_str(
-            "  model choice (smallest leave-one-out RMSE; a simpler one within 5 % preferred):\n",
+            "  model choice (smallest leave-one-out RMSE; a simpler one within 5 % or one standard error preferred):\n",
         );
         for c in &fit.candidates {
             out.push_str(&format!(
@@ -1343,6 +1371,32 @@ fn aligned(row: &[String], widths: &[usize]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_per_level_kriging_surface_lists_each_combinations_length_scales() {
+        use orch_metamodel::surrogate::ModelSpec;
+        use orch_metamodel::{Kernel, Trend};
+        let model = |l: f64| ModelSpec::Kriging {
+            kernel: Kernel::Matern52,
+            trend: Trend::Constant,
+            length_scales: vec![l],
+            process_variance: 4.0,
+            noise_variance: 0.01,
+        };
+        let spec = ModelSpec::KrigingPerLevel {
+            levels: vec![0, 2],
+            models: vec![(vec![0], model(0.25)), (vec![1], model(1.5))],
+        };
+        let fit = StoredFit {
+            spec: Some(surfaces::spec_json(&spec)),
+            ..StoredFit::default()
+        };
+        let lines = kriging_lines(&fit, &["angle".into(), "contact".into()]);
+        assert_eq!(
+            lines,
+            "  at levels [1]:\n    length scales (coded units; small = the response changes fast along it): angle 0.250\n    process std 2.0000e0, noise std 1.0000e-1\n  at levels [2]:\n    length scales (coded units; small = the response changes fast along it): angle 1.500\n    process std 2.0000e0, noise std 1.0000e-1\n"
+        );
+    }
 
     #[test]
     fn a_column_of_small_values_shows_four_significant_digits_and_others_keep_theirs() {

@@ -38,7 +38,16 @@ fn the_pure_crates_know_nothing_of_io_runtimes_databases_or_templates() {
         ("granular", &["thiserror"][..]),
         (
             "metamodel",
-            &["nalgebra", "rand", "rand_chacha", "rand_distr", "thiserror"][..],
+            // rayon: the Kriging likelihood's starts and the repeated pruning run in
+            // parallel; threads, no I/O.
+            &[
+                "nalgebra",
+                "rand",
+                "rand_chacha",
+                "rand_distr",
+                "rayon",
+                "thiserror",
+            ][..],
         ),
     ] {
         for dependency in dependencies(crate_dir) {

@@ -101,7 +101,7 @@ const DEFINITIONS: &str = "<h2>Definitions</h2>\n<dl>\
 <dt>Leverage</dt><dd>How much a run fixes its own prediction (the hat matrix's diagonal). A run of leverage 1 (a single centre point, or as many runs as terms) cannot be left out, so σ_cross is not defined: use 3 centre points.</dd>\
 <dt>95 % interval</dt><dd>From Monte Carlo samples of the uncertain factors through the surface at the optimum: 2.5 % and 97.5 % quantiles; one-sided bounds are the 5 % and 95 % quantiles. The second row also draws the surrogate's own error at every sample (its standard error there), so a surface that predicts poorly widens the bounds.</dd>\
 <dt>Prediction interval</dt><dd>Where a new run at a point falls with 95 % probability: the surrogate's own error and the run-to-run noise (a polynomial's from its coefficients' covariance and residual variance, Kriging's from its posterior and nugget).</dd>\
-<dt>Model choice</dt><dd>Each response's surrogate is the candidate (linear, quadratic, cubic polynomials with insignificant terms dropped, and Kriging) with the smallest leave-one-out RMSE; a simpler one within 5 % of it is preferred.</dd>\
+<dt>Model choice</dt><dd>Each response's surrogate is the candidate (linear, quadratic, cubic polynomials with insignificant terms dropped, and Kriging) with the smallest leave-one-out RMSE (a pruned polynomial's with its pruning repeated without each run); a simpler one within 5 % of it, or within one standard error of its mean squared leave-one-out residual, is preferred.</dd>\
 <dt>Sobol indices</dt><dd>The share of a response's variance over the round's box (factors uniform on it) due to each factor alone (first order) and with its interactions (total).</dd>\
 </dl>\n";
 
@@ -487,7 +487,7 @@ fn candidates_table(fit: &StoredFit, unit: &str) -> String {
         })
         .collect();
     format!(
-        "<p class=\"note\">Model choice: the candidate with the smallest leave-one-out RMSE, a simpler one within 5 % of it preferred.</p>\n{}",
+        "<p class=\"note\">Model choice: the candidate with the smallest leave-one-out RMSE, a simpler one within 5 % or one standard error of it preferred.</p>\n{}",
         table(
             &[
                 "candidate".to_string(),

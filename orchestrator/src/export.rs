@@ -462,7 +462,7 @@ impl RunRows {
             job.reused_from.clone().map_or(Cell::Empty, Cell::Text),
         ];
         cells.extend(point.natural.iter().zip(&self.factors).map(|(v, factor)| {
-            match factor.level_text(*v).filter(|_| factor.levels.is_some()) {
+            match factor.level_text(*v) {
                 Some(text) => Cell::Text(text),
                 None => Cell::Real(without_round_off(*v)),
             }

@@ -679,7 +679,6 @@ pub async fn write_json_paged<W: Write>(
     Ok(writer.end(&head, project_dir)?)
 }
 
-/// Values keyed by factor name.
 /// Natural values by factor name: a text factor's (one with `levels`, by position)
 /// as its level's text.
 fn natural_by_factor(
@@ -705,6 +704,7 @@ fn natural_by_factor(
         .collect()
 }
 
+/// Values keyed by factor name.
 fn by_factor(names: &[&str], values: &[f64]) -> BTreeMap<String, f64> {
     names
         .iter()

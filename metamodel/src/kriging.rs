@@ -266,6 +266,8 @@ pub struct Kriging {
     process_variance: f64,
     /// Noise variance, standardised units.
     noise_variance: f64,
+    /// Whether the trend's last regressor is a covariate given at prediction.
+    has_covariate: bool,
     jitter: f64,
     factor: Factor,
     /// Trend coefficients in response units (intercept includes the mean).
@@ -347,7 +349,12 @@ pub fn pure_error_variance(x: &[Vec<f64>], y: &[f64]) -> Option<(f64, usize)> {
 }
 
 /// Checks points and responses; returns the number of factors.
-fn validate(x: &[Vec<f64>], y: &[f64], trend: Trend) -> Result<usize, KrigingError> {
+fn validate(
+    x: &[Vec<f64>],
+    y: &[f64],
+    trend: Trend,
+    extra_terms: usize,
+) -> Result<usize, KrigingError> {
     if x.len() != y.len() {
         return Err(KrigingError::Mismatch {
             points: x.len(),
@@ -378,7 +385,7 @@ fn validate(x: &[Vec<f64>], y: &[f64], trend: Trend) -> Result<usize, KrigingErr
             value,
         });
     }
-    let p = trend.n_terms(k);
+    let p = trend.n_terms(k) + extra_terms;
     if x.len() < p + 1 {
         return Err(KrigingError::TooFewRuns {
             runs: x.len(),
@@ -443,12 +450,14 @@ fn cholesky_with_jitter(k: &DMatrix<f64>) -> Result<(DMatrix<f64>, f64), Kriging
 
 /// Builds and factors the kriging system for standardised responses `ys` at `points`
 /// (row-major, `k` columns), given inverse length scales and the noise ratio `g`.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn factorise(
     points: &[f64],
     k: usize,
     ys: &[f64],
     kernel: Kernel,
     trend: Trend,
+    covariate: Option<&[f64]>,
     inverse_length_scales: &[f64],
     noise_ratio: f64,
 ) -> Result<Factor, KrigingError> {
@@ -470,11 +479,16 @@ pub(crate) fn factorise(
         }
     }
     let (l, jitter) = cholesky_with_jitter(&kmat)?;
-    let p = trend.n_terms(k);
+    let p = trend.n_terms(k) + usize::from(covariate.is_some());
     let mut f = DMatrix::<f64>::zeros(n, p);
     let mut row = vec![0.0; p];
     for i in 0..n {
-        trend.row_into(&points[i * k..(i + 1) * k], &mut row);
+        regressors_into(
+            trend,
+            &points[i * k..(i + 1) * k],
+            covariate.map(|c| c[i]),
+            &mut row,
+        );
         for (j, v) in row.iter().enumerate() {
             f[(i, j)] = *v;
         }
@@ -513,6 +527,16 @@ pub(crate) fn factorise(
     })
 }
 
+/// The regressors at `x`: the trend's, then the covariate's value when there is one
+/// (`out` has room for both).
+fn regressors_into(trend: Trend, x: &[f64], covariate: Option<f64>, out: &mut [f64]) {
+    let p = trend.n_terms(x.len());
+    trend.row_into(x, &mut out[..p]);
+    if let Some(c) = covariate {
+        out[p] = c;
+    }
+}
+
 /// `−ln L` (standardised units) for process variance `s2` and the factor of
 /// `K = R + (τ²/s2) I`.
 pub(crate) fn negative_log_likelihood(factor: &Factor, n: usize, s2: f64) -> f64 {
@@ -543,7 +567,28 @@ impl Kriging {
         y: &[f64],
         options: &KrigingOptions,
     ) -> Result<Kriging, KrigingError> {
-        let k = validate(x, y, options.trend)?;
+        Kriging::fit_with_covariate(x, y, None, options)
+    }
+
+    /// [`Kriging::fit`] with one more regressor in the trend, `covariate[i]` at run
+    /// `i`: a lower fidelity's prediction in co-Kriging ([`crate::co_kriging`]). Its
+    /// coefficient is the last trend coefficient, and the model must then be asked
+    /// with [`Kriging::predict_given`] and [`Kriging::predict_variance_given`].
+    pub(crate) fn fit_with_covariate(
+        x: &[Vec<f64>],
+        y: &[f64],
+        covariate: Option<&[f64]>,
+        options: &KrigingOptions,
+    ) -> Result<Kriging, KrigingError> {
+        let k = validate(x, y, options.trend, usize::from(covariate.is_some()))?;
+        if let Some(c) = covariate {
+            if c.len() != y.len() {
+                return Err(KrigingError::Mismatch {
+                    points: c.len(),
+                    responses: y.len(),
+                });
+            }
+        }
         let n = y.len();
         let (y_mean, y_std) = mean_and_std(y);
         if y_std <= 0.0 {
@@ -593,6 +638,7 @@ impl Kriging {
             ys: &ys,
             kernel,
             trend,
+            covariate,
             search,
         };
         let mut starts = start_points(
@@ -622,7 +668,7 @@ impl Kriging {
                 (tau2 / s2, Some(s2))
             }
         };
-        let factor = factorise(&points, k, &ys, kernel, trend, &inverse, ratio)?;
+        let factor = factorise(&points, k, &ys, kernel, trend, covariate, &inverse, ratio)?;
         let s2 = fixed_s2.unwrap_or_else(|| factor.quadratic_form() / n as f64);
         if s2.is_nan() || s2 <= 0.0 {
             return Err(KrigingError::ConstantResponse {
@@ -630,7 +676,7 @@ impl Kriging {
                 value: y[0],
             });
         }
-        Ok(Kriging::assemble(
+        let mut model = Kriging::assemble(
             kernel,
             trend,
             k,
@@ -641,7 +687,9 @@ impl Kriging {
             s2,
             ratio * s2,
             factor,
-        ))
+        );
+        model.has_covariate = covariate.is_some();
+        Ok(model)
     }
 
     /// Builds a Kriging model with given hyperparameters, nothing estimated but the
@@ -658,7 +706,7 @@ impl Kriging {
         process_variance: f64,
         noise_variance: f64,
     ) -> Result<Kriging, KrigingError> {
-        let k = validate(x, y, trend)?;
+        let k = validate(x, y, trend, 0)?;
         if length_scales.len() != k {
             return Err(KrigingError::BadHyperparameter {
                 name: "number of length scales",
@@ -696,7 +744,7 @@ impl Kriging {
         let inverse: Vec<f64> = length_scales.iter().map(|l| 1.0 / l).collect();
         let s2 = process_variance / (y_std * y_std);
         let tau2 = noise_variance / (y_std * y_std);
-        let factor = factorise(&points, k, &ys, kernel, trend, &inverse, tau2 / s2)?;
+        let factor = factorise(&points, k, &ys, kernel, trend, None, &inverse, tau2 / s2)?;
         Ok(Kriging::assemble(
             kernel,
             trend,
@@ -763,6 +811,7 @@ impl Kriging {
             y_std,
             process_variance: s2,
             noise_variance: tau2,
+            has_covariate: false,
             jitter: factor.jitter,
             factor,
             trend_coefficients,
@@ -773,14 +822,24 @@ impl Kriging {
 
     /// Posterior mean at coded point `x`, in response units. Allocates nothing.
     pub fn predict(&self, x: &[f64]) -> f64 {
+        self.predict_given(x, None)
+    }
+
+    /// Posterior mean at coded point `x` where the trend's covariate (if the model has
+    /// one) takes the value `covariate`.
+    pub(crate) fn predict_given(&self, x: &[f64], covariate: Option<f64>) -> f64 {
+        debug_assert_eq!(covariate.is_some(), self.has_covariate);
         let k = self.n_factors;
         let mut value = self.trend_coefficients[0];
         if self.trend == Trend::Linear {
-            value += self.trend_coefficients[1..]
+            value += self.trend_coefficients[1..=k]
                 .iter()
                 .zip(x)
                 .map(|(b, v)| b * v)
                 .sum::<f64>();
+        }
+        if let Some(c) = covariate {
+            value += self.trend_coefficients[self.trend_coefficients.len() - 1] * c;
         }
         let w = &self.inverse_length_scales;
         let sum: f64 = self
@@ -799,6 +858,13 @@ impl Kriging {
     /// response units², including the trend coefficients' estimation uncertainty
     /// (hyperparameters taken as known); never negative.
     pub fn predict_variance(&self, x: &[f64]) -> f64 {
+        self.predict_variance_given(x, None)
+    }
+
+    /// [`Kriging::predict_variance`] where the trend's covariate takes the value
+    /// `covariate`.
+    pub(crate) fn predict_variance_given(&self, x: &[f64], covariate: Option<f64>) -> f64 {
+        debug_assert_eq!(covariate.is_some(), self.has_covariate);
         let k = self.n_factors;
         let w = &self.inverse_length_scales;
         let mut r = DVector::from_iterator(
@@ -810,9 +876,9 @@ impl Kriging {
         );
         self.factor.l.solve_lower_triangular_mut(&mut r);
         let explained = r.norm_squared();
-        let p = self.trend.n_terms(k);
+        let p = self.trend.n_terms(k) + usize::from(covariate.is_some());
         let mut f = vec![0.0; p];
-        self.trend.row_into(x, &mut f);
+        regressors_into(self.trend, x, covariate, &mut f);
         let u = DVector::from_vec(f) - self.factor.whitened_trend.tr_mul(&r);
         let trend_term = u.dot(&self.factor.trend_gram.solve(&u));
         let variance = self.process_variance * (1.0 - explained + trend_term);
@@ -851,7 +917,7 @@ impl Kriging {
     }
 
     /// Trend coefficients in response units (intercept first, then one per factor for
-    /// a linear trend).
+    /// a linear trend, then a co-Kriging level's covariate's).
     pub fn trend_coefficients(&self) -> &[f64] {
         &self.trend_coefficients
     }

@@ -39,6 +39,8 @@ pub(crate) struct Likelihood<'a> {
     pub kernel: Kernel,
     /// Trend.
     pub trend: Trend,
+    /// One more trend regressor per run (co-Kriging's lower fidelity), if any.
+    pub covariate: Option<&'a [f64]>,
     /// What besides the log length scales is searched.
     pub search: NoiseSearch,
 }
@@ -75,6 +77,7 @@ impl Likelihood<'_> {
             self.ys,
             self.kernel,
             self.trend,
+            self.covariate,
             &inverse,
             ratio,
         ) else {
@@ -313,8 +316,14 @@ mod tests {
             .collect();
         let mean = ys.iter().sum::<f64>() / 25.0;
         let ys: Vec<f64> = ys.iter().map(|v| v - mean).collect();
+        // A co-Kriging level's covariate: a lower fidelity's values at the runs.
+        let lower_fidelity: Vec<f64> = points.chunks(3).map(|p| (2.0 * p[2]).cos()).collect();
         for kernel in [Kernel::SquaredExponential, Kernel::Matern52] {
-            for trend in [Trend::Constant, Trend::Linear] {
+            for (trend, covariate) in [
+                (Trend::Constant, None),
+                (Trend::Linear, None),
+                (Trend::Constant, Some(lower_fidelity.as_slice())),
+            ] {
                 for (search, theta) in [
                     (NoiseSearch::FixedRatio(1e-3), vec![-0.3, 0.2, -0.6]),
                     (NoiseSearch::FittedRatio, vec![-0.3, 0.2, -0.6, -5.0]),
@@ -326,6 +335,7 @@ mod tests {
                         ys: &ys,
                         kernel,
                         trend,
+                        covariate,
                         search,
                     };
                     let (_, gradient) = likelihood.value_and_gradient(&theta, true);
@@ -338,7 +348,7 @@ mod tests {
                         let numeric = (likelihood.value(&up) - likelihood.value(&down)) / (2.0 * h);
                         assert!(
                             (gradient[j] - numeric).abs() < 1e-5 * (1.0 + numeric.abs()),
-                            "{kernel:?} {trend:?} {search:?} θ{j}: {} vs {numeric}",
+                            "{kernel:?} {trend:?} {covariate:?} {search:?} θ{j}: {} vs {numeric}",
                             gradient[j]
                         );
                     }

@@ -8,6 +8,7 @@
 //! [`FactorRange`] converts between coded and natural (SI) units.
 
 pub mod basis;
+pub mod co_kriging;
 pub mod design;
 pub mod fit;
 pub mod improvement;
@@ -28,6 +29,9 @@ pub mod student;
 pub mod surrogate;
 
 pub use basis::{Basis, BasisKind};
+pub use co_kriging::{
+    nested_subset, propose_fidelity, CoKriging, CoKrigingError, FidelityProposal, LevelRuns,
+};
 pub use design::{run_count, CentralCompositeAlpha, Design, DesignError, DesignKind, MAX_RUNS};
 pub use fit::{test_quality, Fit, FitError, Interval, Quality, TestQuality};
 pub use improvement::{erf, erfc, expected_improvement, normal_cdf, normal_pdf, propose_batch};

@@ -590,6 +590,10 @@ async fn compare(
     for change in history::changes(&all) {
         outln!("CHANGED: {change}")?;
     }
+    let slowdowns = history::slowdowns(&all);
+    for slowdown in &slowdowns {
+        outln!("SLOWER: {slowdown}")?;
+    }
     outln!(
         "comparison {id}: {} (solvers {}; commit {}; wall time {:.0} s); report {}",
         verdict.as_str(),
@@ -620,7 +624,7 @@ async fn compare(
         }
     }
     store.close().await;
-    Ok(if verdict == Verdict::Regression {
+    Ok(if verdict == Verdict::Regression || !slowdowns.is_empty() {
         exit_codes::REGRESSION
     } else {
         exit_codes::SUCCESS

@@ -5,7 +5,8 @@ pub const SUCCESS: i32 = 0;
 /// The study ran to the end but some jobs failed (their reasons are in `orch status`).
 pub const JOBS_FAILED: i32 = 1;
 /// `orch compare`: the native kernel differs from a reference solver by more than a
-/// tolerance (an interval wholly outside it), or a run failed.
+/// tolerance (an interval wholly outside it), ran more than 5 % slower than its
+/// history, or a run failed.
 pub const REGRESSION: i32 = 1;
 /// The input was wrong: a bad study file, an unknown study or job, a missing solver.
 /// Nothing was written.

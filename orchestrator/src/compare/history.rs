@@ -88,6 +88,113 @@ pub fn changes(history: &[StoredComparison]) -> Vec<String> {
     found
 }
 
+/// How much slower than its history the native kernel may run before a comparison
+/// fails: 5 %.
+pub const SLOWDOWN_TOLERANCE: f64 = 0.05;
+
+/// How many earlier clean runs the speed is judged against (their median).
+const SPEED_HISTORY: usize = 5;
+
+/// The native kernel's speed on `case` in `run`, divided by the yardstick's: the first
+/// reference solver (by name) that also ran `case` in the same run, since runs on a
+/// shared machine slow down together; the absolute speed when `yardstick` is `None`.
+fn native_speed(run: &StoredComparison, case: &str, yardstick: Option<&str>) -> Option<f64> {
+    let speed = |solver: &str| {
+        run.speeds
+            .iter()
+            .find(|s| s.case == case && s.solver == solver)
+            .map(|s| s.particle_steps_per_s)
+            .filter(|v| v.is_finite() && *v > 0.0)
+    };
+    let native = speed(NATIVE)?;
+    match yardstick {
+        Some(reference) => Some(native / speed(reference)?),
+        None => Some(native),
+    }
+}
+
+/// Cases on which the native kernel ran more than [`SLOWDOWN_TOLERANCE`] slower in the
+/// latest run of `history` (oldest first) than the median of up to five earlier clean
+/// runs of the same suite selection, as sentences. The speed is measured against a
+/// reference solver run in the same invocation where one ran in both (machine noise
+/// cancels); otherwise absolute, and the sentence says so. A perturbed run, or one that
+/// made no native run of a case, is not judged.
+pub fn slowdowns(history: &[StoredComparison]) -> Vec<String> {
+    let Some((latest, earlier)) = history.split_last() else {
+        return Vec::new();
+    };
+    if !latest.record.perturbation.is_empty() {
+        return Vec::new();
+    }
+    let clean: Vec<&StoredComparison> = earlier
+        .iter()
+        .rev()
+        .filter(|c| {
+            c.record.suite == latest.record.suite
+                && c.record.quick == latest.record.quick
+                && c.record.perturbation.is_empty()
+        })
+        .collect();
+    let mut cases: Vec<&str> = latest
+        .speeds
+        .iter()
+        .filter(|s| s.solver == NATIVE)
+        .map(|s| s.case.as_str())
+        .collect();
+    cases.dedup();
+    let mut found = Vec::new();
+    for case in cases {
+        let mut references: Vec<&str> = latest
+            .speeds
+            .iter()
+            .filter(|s| s.case == case && s.solver != NATIVE)
+            .map(|s| s.solver.as_str())
+            .collect();
+        references.sort_unstable();
+        let judged = references.iter().find_map(|&reference| {
+            let past: Vec<f64> = clean
+                .iter()
+                .filter_map(|c| native_speed(c, case, Some(reference)))
+                .take(SPEED_HISTORY)
+                .collect();
+            let now = native_speed(latest, case, Some(reference))?;
+            (!past.is_empty()).then(|| (Some(reference), now, past))
+        });
+        let judged = judged.or_else(|| {
+            let past: Vec<f64> = clean
+                .iter()
+                .filter_map(|c| native_speed(c, case, None))
+                .take(SPEED_HISTORY)
+                .collect();
+            let now = native_speed(latest, case, None)?;
+            (!past.is_empty()).then_some((None, now, past))
+        });
+        let Some((yardstick, now, mut past)) = judged else {
+            continue;
+        };
+        past.sort_by(f64::total_cmp);
+        let middle = past.len() / 2;
+        let baseline = if past.len() % 2 == 1 {
+            past[middle]
+        } else {
+            0.5 * (past[middle - 1] + past[middle])
+        };
+        if now < (1.0 - SLOWDOWN_TOLERANCE) * baseline {
+            let measure = match yardstick {
+                Some(reference) => format!("its speed over {reference}'s in the same run"),
+                None => "its absolute speed (no reference solver ran this case in both)".into(),
+            };
+            found.push(format!(
+                "{case}: the native kernel is {:.1} % slower than the median of its last {} clean runs, by {measure}: {now:.4} against {baseline:.4}; more than {:.0} % fails the comparison",
+                100.0 * (1.0 - now / baseline),
+                past.len(),
+                100.0 * SLOWDOWN_TOLERANCE
+            ));
+        }
+    }
+    found
+}
+
 /// Days since the Unix epoch, for the time axis.
 fn days(seconds: f64) -> f64 {
     seconds / 86_400.0
@@ -119,7 +226,7 @@ pub fn page(history: &[StoredComparison]) -> String {
         html::escape(&record.verdict)
     ));
     let changes = changes(history);
-    for change in &changes {
+    for change in changes.iter().chain(&slowdowns(history)) {
         body.push_str(&format!("<p class=\"warn\">{}</p>\n", html::escape(change)));
     }
     let headers: Vec<String> = [
@@ -285,6 +392,16 @@ mod tests {
     use crate::store::ComparisonRecord;
 
     fn run(id: i64, difference: f64, perturbation: &str) -> StoredComparison {
+        timed(id, difference, perturbation, 4e6, Some(2e6))
+    }
+
+    fn timed(
+        id: i64,
+        difference: f64,
+        perturbation: &str,
+        native: f64,
+        reference: Option<f64>,
+    ) -> StoredComparison {
         StoredComparison {
             id,
             record: ComparisonRecord {
@@ -311,20 +428,19 @@ mod tests {
                 tolerance: 0.1,
                 verdict: "agree".into(),
             }],
-            speeds: vec![
-                SpeedRecord {
-                    case: "c".into(),
-                    solver: NATIVE.into(),
-                    particle_steps_per_s: 4e6,
-                    runs: 3,
-                },
-                SpeedRecord {
-                    case: "c".into(),
-                    solver: "liggghts".into(),
-                    particle_steps_per_s: 2e6,
-                    runs: 3,
-                },
-            ],
+            speeds: std::iter::once(SpeedRecord {
+                case: "c".into(),
+                solver: NATIVE.into(),
+                particle_steps_per_s: native,
+                runs: 3,
+            })
+            .chain(reference.map(|v| SpeedRecord {
+                case: "c".into(),
+                solver: "liggghts".into(),
+                particle_steps_per_s: v,
+                runs: 3,
+            }))
+            .collect(),
         }
     }
 
@@ -353,5 +469,50 @@ mod tests {
         );
         assert!(html.contains("+20.0 %"));
         assert!(page(&[]).contains("No comparison has run yet"));
+    }
+
+    #[test]
+    fn a_native_slowdown_beyond_5_percent_against_liggghts_in_the_same_run_fails() {
+        // Ratios 2.0, 2.1, 1.9 before: median 2.0. The machine got slower for both
+        // (ratio 1.96, −2 %): fine. The kernel got slower alone (1.8, −10 %): flagged.
+        let before = || {
+            vec![
+                timed(1, 0.0, "", 4.0e6, Some(2e6)),
+                timed(2, 0.0, "", 4.2e6, Some(2e6)),
+                timed(3, 0.0, "", 3.8e6, Some(2e6)),
+            ]
+        };
+        let mut history = before();
+        history.push(timed(4, 0.0, "", 2.94e6, Some(1.5e6)));
+        assert!(slowdowns(&history).is_empty(), "{:?}", slowdowns(&history));
+        let mut history = before();
+        history.push(timed(4, 0.0, "", 3.6e6, Some(2e6)));
+        let found = slowdowns(&history);
+        assert_eq!(found.len(), 1, "{found:?}");
+        assert!(found[0].contains("10.0 % slower") && found[0].contains("over liggghts's"));
+        assert!(
+            page(&history).contains("10.0 % slower"),
+            "the page says it too"
+        );
+        // A perturbed run is not judged, nor is a first run.
+        let mut history = before();
+        history.push(timed(4, 0.0, "density=1.3", 1e6, Some(2e6)));
+        assert!(slowdowns(&history).is_empty());
+        assert!(slowdowns(&[timed(1, 0.0, "", 1e6, Some(2e6))]).is_empty());
+    }
+
+    #[test]
+    fn without_a_reference_run_the_absolute_speed_is_judged_and_said_to_be() {
+        // LIGGGHTS's runs were reused (no speed this time): absolute native speed.
+        let mut history = vec![
+            timed(1, 0.0, "", 4.0e6, Some(2e6)),
+            timed(2, 0.0, "", 4.0e6, None),
+        ];
+        history.push(timed(3, 0.0, "", 3.9e6, None));
+        assert!(slowdowns(&history).is_empty());
+        history.push(timed(4, 0.0, "", 3.0e6, None));
+        let found = slowdowns(&history);
+        assert_eq!(found.len(), 1, "{found:?}");
+        assert!(found[0].contains("absolute speed"), "{}", found[0]);
     }
 }

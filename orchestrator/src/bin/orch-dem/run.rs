@@ -231,6 +231,12 @@ pub fn run(case_path: &Path, log_path: &Path, threads: usize) -> anyhow::Result<
         simulation.time_s(),
         summary.remaining
     )?;
+    // Last, as LAMMPS ends its logs: the one figure to compare runs by.
+    writeln!(
+        log,
+        "Performance: {:.4e} particle-steps/s on {threads} threads",
+        summary.throughput()
+    )?;
     log.flush()?;
     Ok(summary)
 }
@@ -394,8 +400,12 @@ dump_every = 50
         );
         assert_eq!(log.matches(&line).count(), 1, "{log}");
         assert!(
-            log.trim_end()
-                .ends_with("ORCH-DEM DONE at step 100 (t = 0.010000 s) with 1 particles left"),
+            log.contains("ORCH-DEM DONE at step 100 (t = 0.010000 s) with 1 particles left\n"),
+            "{log}"
+        );
+        let last = log.trim_end().lines().last().unwrap();
+        assert!(
+            last.starts_with("Performance: ") && last.ends_with(" particle-steps/s on 1 threads"),
             "{log}"
         );
     }

@@ -158,7 +158,7 @@ pub fn slowdowns(history: &[StoredComparison]) -> Vec<String> {
                 .take(SPEED_HISTORY)
                 .collect();
             let now = native_speed(latest, case, Some(reference))?;
-            (!past.is_empty()).then(|| (Some(reference), now, past))
+            (!past.is_empty()).then_some((Some(reference), now, past))
         });
         let judged = judged.or_else(|| {
             let past: Vec<f64> = clean

@@ -60,7 +60,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use crate::improvement::{expected_improvement, Feasibility};
-use crate::kriging::{nelder_mead, Kriging, KrigingError, KrigingOptions, Stop};
+use crate::kriging::{nelder_mead, Kernel, Kriging, KrigingError, KrigingOptions, Stop, Trend};
 use crate::optimise::{BoxBounds, Goal};
 
 /// Why a co-Kriging model cannot be built.
@@ -77,6 +77,14 @@ pub enum CoKrigingError {
         /// Why its Kriging model failed.
         source: KrigingError,
     },
+    /// Hyperparameters were given for another number of levels than runs.
+    #[error("runs at {runs} fidelity levels but hyperparameters for {hyperparameters}; give one set per level")]
+    Levels {
+        /// Levels with runs.
+        runs: usize,
+        /// Levels with hyperparameters.
+        hyperparameters: usize,
+    },
     /// The lower level predicts the same value at every run of this level, so the
     /// scale factor ρ cannot be estimated.
     #[error("fidelity level {level}: the level below predicts the same value at all {runs} of its runs, so the scale between the levels cannot be estimated; run this level at points where the level below differs")]
@@ -86,6 +94,17 @@ pub enum CoKrigingError {
         /// Its runs.
         runs: usize,
     },
+}
+
+/// One level's Kriging hyperparameters (of `δ_t` above level 0), in response units.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LevelHyperparameters {
+    /// Length scales, coded units, one per factor.
+    pub length_scales: Vec<f64>,
+    /// Process variance σ², response units².
+    pub process_variance: f64,
+    /// Noise (nugget) variance τ², response units².
+    pub noise_variance: f64,
 }
 
 /// One fidelity level's runs: coded points and responses.
@@ -124,18 +143,58 @@ impl CoKriging {
         runs: &[LevelRuns<'_>],
         options: &KrigingOptions,
     ) -> Result<CoKriging, CoKrigingError> {
+        CoKriging::build(runs, |t, level, covariate| {
+            let level_options = KrigingOptions {
+                seed: options.seed.wrapping_add(t as u64),
+                ..options.clone()
+            };
+            Kriging::fit_with_covariate(level.x, level.y, covariate, &level_options)
+        })
+    }
+
+    /// The model with every level's hyperparameters given (one per level, cheapest
+    /// first), nothing searched: the trend coefficients and `ρ` by generalised least
+    /// squares. Rebuilds a stored model on its runs.
+    pub fn with_hyperparameters(
+        runs: &[LevelRuns<'_>],
+        kernel: Kernel,
+        trend: Trend,
+        levels: &[LevelHyperparameters],
+    ) -> Result<CoKriging, CoKrigingError> {
+        if levels.len() != runs.len() {
+            return Err(CoKrigingError::Levels {
+                runs: runs.len(),
+                hyperparameters: levels.len(),
+            });
+        }
+        CoKriging::build(runs, |t, level, covariate| {
+            let h = &levels[t];
+            Kriging::with_hyperparameters_given(
+                level.x,
+                level.y,
+                covariate,
+                kernel,
+                trend,
+                &h.length_scales,
+                h.process_variance,
+                h.noise_variance,
+            )
+        })
+    }
+
+    /// The levels fitted in turn by `fit_level(level, runs, covariate)`.
+    fn build(
+        runs: &[LevelRuns<'_>],
+        fit_level: impl Fn(usize, &LevelRuns<'_>, Option<&[f64]>) -> Result<Kriging, KrigingError>,
+    ) -> Result<CoKriging, CoKrigingError> {
         if runs.is_empty() {
             return Err(CoKrigingError::NoLevels);
         }
         let mut fitted = CoKriging { levels: Vec::new() };
         for (t, level) in runs.iter().enumerate() {
-            let level_options = KrigingOptions {
-                seed: options.seed.wrapping_add(t as u64),
-                ..options.clone()
-            };
             let fail = |source| CoKrigingError::Level { level: t, source };
             if t == 0 {
-                let model = Kriging::fit(level.x, level.y, &level_options).map_err(fail)?;
+                let model = fit_level(0, level, None).map_err(fail)?;
                 fitted.levels.push(Level {
                     model,
                     covariate_scale: None,
@@ -157,15 +216,26 @@ impl CoKriging {
                 });
             }
             let covariate: Vec<f64> = below.iter().map(|v| (v - mean) / std).collect();
-            let model =
-                Kriging::fit_with_covariate(level.x, level.y, Some(&covariate), &level_options)
-                    .map_err(fail)?;
+            let model = fit_level(t, level, Some(&covariate)).map_err(fail)?;
             fitted.levels.push(Level {
                 model,
                 covariate_scale: Some((mean, std)),
             });
         }
         Ok(fitted)
+    }
+
+    /// Each level's hyperparameters, cheapest first: what
+    /// [`CoKriging::with_hyperparameters`] takes.
+    pub fn hyperparameters(&self) -> Vec<LevelHyperparameters> {
+        self.levels
+            .iter()
+            .map(|l| LevelHyperparameters {
+                length_scales: l.model.length_scales().to_vec(),
+                process_variance: l.model.process_variance(),
+                noise_variance: l.model.noise_variance(),
+            })
+            .collect()
     }
 
     /// Number of fidelity levels.
@@ -260,6 +330,21 @@ impl CoKriging {
     pub fn loo_residuals(&self) -> Vec<f64> {
         self.levels[self.top()].model.loo_residuals()
     }
+}
+
+/// Runs whose points carry their fidelity level as a last coordinate (0 the cheapest),
+/// split by level: points without it and responses, one pair per level up to the
+/// highest present. How a study's runs reach [`crate::surrogate::Surrogate`].
+pub fn split_by_level(x: &[Vec<f64>], y: &[f64]) -> Vec<(Vec<Vec<f64>>, Vec<f64>)> {
+    let level_of = |p: &[f64]| p.last().map_or(0, |l| l.round().max(0.0) as usize);
+    let n_levels = x.iter().map(|p| level_of(p) + 1).max().unwrap_or(0);
+    let mut split = vec![(Vec::new(), Vec::new()); n_levels];
+    for (p, v) in x.iter().zip(y) {
+        let (xs, ys) = &mut split[level_of(p)];
+        xs.push(p[..p.len() - 1].to_vec());
+        ys.push(*v);
+    }
+    split
 }
 
 /// The nested subset of `m` of `points`: greedy maximin, starting from the point

@@ -396,6 +396,17 @@ fn validate(
     Ok(k)
 }
 
+/// A covariate, when given, has one value per response.
+fn check_covariate(covariate: Option<&[f64]>, y: &[f64]) -> Result<(), KrigingError> {
+    match covariate {
+        Some(c) if c.len() != y.len() => Err(KrigingError::Mismatch {
+            points: c.len(),
+            responses: y.len(),
+        }),
+        _ => Ok(()),
+    }
+}
+
 /// Mean and sample standard deviation.
 fn mean_and_std(y: &[f64]) -> (f64, f64) {
     let n = y.len() as f64;
@@ -581,14 +592,7 @@ impl Kriging {
         options: &KrigingOptions,
     ) -> Result<Kriging, KrigingError> {
         let k = validate(x, y, options.trend, usize::from(covariate.is_some()))?;
-        if let Some(c) = covariate {
-            if c.len() != y.len() {
-                return Err(KrigingError::Mismatch {
-                    points: c.len(),
-                    responses: y.len(),
-                });
-            }
-        }
+        check_covariate(covariate, y)?;
         let n = y.len();
         let (y_mean, y_std) = mean_and_std(y);
         if y_std <= 0.0 {
@@ -706,7 +710,33 @@ impl Kriging {
         process_variance: f64,
         noise_variance: f64,
     ) -> Result<Kriging, KrigingError> {
-        let k = validate(x, y, trend, 0)?;
+        Kriging::with_hyperparameters_given(
+            x,
+            y,
+            None,
+            kernel,
+            trend,
+            length_scales,
+            process_variance,
+            noise_variance,
+        )
+    }
+
+    /// [`Kriging::with_hyperparameters`] with a covariate in the trend, as
+    /// [`Kriging::fit_with_covariate`] has.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn with_hyperparameters_given(
+        x: &[Vec<f64>],
+        y: &[f64],
+        covariate: Option<&[f64]>,
+        kernel: Kernel,
+        trend: Trend,
+        length_scales: &[f64],
+        process_variance: f64,
+        noise_variance: f64,
+    ) -> Result<Kriging, KrigingError> {
+        let k = validate(x, y, trend, usize::from(covariate.is_some()))?;
+        check_covariate(covariate, y)?;
         if length_scales.len() != k {
             return Err(KrigingError::BadHyperparameter {
                 name: "number of length scales",
@@ -744,8 +774,17 @@ impl Kriging {
         let inverse: Vec<f64> = length_scales.iter().map(|l| 1.0 / l).collect();
         let s2 = process_variance / (y_std * y_std);
         let tau2 = noise_variance / (y_std * y_std);
-        let factor = factorise(&points, k, &ys, kernel, trend, None, &inverse, tau2 / s2)?;
-        Ok(Kriging::assemble(
+        let factor = factorise(
+            &points,
+            k,
+            &ys,
+            kernel,
+            trend,
+            covariate,
+            &inverse,
+            tau2 / s2,
+        )?;
+        let mut model = Kriging::assemble(
             kernel,
             trend,
             k,
@@ -756,7 +795,9 @@ impl Kriging {
             s2,
             tau2,
             factor,
-        ))
+        );
+        model.has_covariate = covariate.is_some();
+        Ok(model)
     }
 
     /// This model's kernel, trend and hyperparameters on other data: see

@@ -28,6 +28,7 @@
 use rayon::prelude::*;
 
 use crate::basis::{Basis, BasisKind};
+use crate::co_kriging::{split_by_level, CoKriging, LevelHyperparameters, LevelRuns};
 use crate::fit::{test_quality, Fit, Interval, Quality, TestQuality};
 use crate::kriging::{Kernel, Kriging, KrigingOptions, Trend};
 use crate::levels::{combination_of, numeric_part};
@@ -77,6 +78,14 @@ pub enum Surrogate {
     },
     /// One Gaussian-process model per combination of the text factors' levels.
     KrigingPerLevel(Box<KrigingPerLevel>),
+    /// Co-Kriging over fidelity levels, predicting the top level.
+    CoKriging {
+        /// The model.
+        model: Box<CoKriging>,
+        /// Its quality on the top level's runs (σ_cross from their leave-one-out
+        /// residuals with the levels below held).
+        quality: Quality,
+    },
 }
 
 /// Enough to rebuild a surrogate on the same runs without searching again.
@@ -111,6 +120,15 @@ pub enum ModelSpec {
         /// Each combination (one level per text factor, 0-based) and its model's
         /// [`ModelSpec::Kriging`].
         models: Vec<(Vec<u32>, ModelSpec)>,
+    },
+    /// Co-Kriging over fidelity levels with these hyperparameters, cheapest first.
+    CoKriging {
+        /// Kernel of every level.
+        kernel: Kernel,
+        /// Trend of every level (plus `ρ` above level 0).
+        trend: Trend,
+        /// Each level's hyperparameters.
+        levels: Vec<LevelHyperparameters>,
     },
 }
 
@@ -390,16 +408,33 @@ fn kriging_name(kernel: Kernel, trend: Trend) -> String {
 /// R², leave-one-out residuals and σ_cross of a Kriging model on its own runs,
 /// defined as for a polynomial ([`Quality`]).
 fn kriging_quality(model: &Kriging, y: &[f64], parameters: usize) -> Quality {
+    let predictions: Vec<f64> = model.points().iter().map(|x| model.predict(x)).collect();
+    quality_from(
+        y,
+        &predictions,
+        model.loo_residuals(),
+        parameters,
+        model.noise_variance(),
+    )
+}
+
+/// R², σ_cross and PRESS of a Gaussian-process model from its predictions at its runs
+/// and its leave-one-out residuals.
+fn quality_from(
+    y: &[f64],
+    predictions: &[f64],
+    loo: Vec<f64>,
+    parameters: usize,
+    noise_variance: f64,
+) -> Quality {
     let n = y.len();
     let mean = y.iter().sum::<f64>() / n as f64;
     let ss_tot: f64 = y.iter().map(|v| (v - mean).powi(2)).sum();
-    let ss_res: f64 = model
-        .points()
+    let ss_res: f64 = predictions
         .iter()
         .zip(y)
-        .map(|(x, v)| (v - model.predict(x)).powi(2))
+        .map(|(p, v)| (v - p).powi(2))
         .sum();
-    let loo = model.loo_residuals();
     let press: f64 = loo.iter().map(|e| e * e).sum();
     let spread = if n > 1 {
         (ss_tot / (n - 1) as f64).sqrt()
@@ -416,7 +451,7 @@ fn kriging_quality(model: &Kriging, y: &[f64], parameters: usize) -> Quality {
             1.0
         },
         adjusted_r2: None,
-        residual_std: Some(model.noise_variance().sqrt()),
+        residual_std: Some(noise_variance.sqrt()),
         loo_residuals: Some(loo),
         press: Some(press),
         sigma_cross_percent,
@@ -425,6 +460,46 @@ fn kriging_quality(model: &Kriging, y: &[f64], parameters: usize) -> Quality {
 }
 
 impl Surrogate {
+    /// A co-Kriging surrogate fitted to runs whose points carry their fidelity level as
+    /// a last coordinate (0 the cheapest, every level from 0 to the highest present);
+    /// it predicts the top level over the other coordinates.
+    pub fn fit_co_kriging(
+        x: &[Vec<f64>],
+        y: &[f64],
+        options: &KrigingOptions,
+    ) -> Result<Surrogate, String> {
+        let split = split_by_level(x, y);
+        if let Some(level) = split.iter().position(|(x, _)| x.is_empty()) {
+            return Err(format!(
+                "no run at fidelity level {level}; every level needs runs"
+            ));
+        }
+        let runs: Vec<LevelRuns<'_>> = split.iter().map(|(x, y)| LevelRuns { x, y }).collect();
+        CoKriging::fit(&runs, options)
+            .map(|model| Surrogate::co_kriging(model, &split[split.len() - 1].1))
+            .map_err(|e| e.to_string())
+    }
+
+    /// A co-Kriging surrogate with its quality on the top level's responses `y_top`.
+    pub fn co_kriging(model: CoKriging, y_top: &[f64]) -> Surrogate {
+        let top = model.level_model(model.top());
+        let predictions: Vec<f64> = top.points().iter().map(|p| model.predict(p)).collect();
+        let mut quality = quality_from(
+            y_top,
+            &predictions,
+            model.loo_residuals(),
+            co_kriging_parameters(&model),
+            top.noise_variance(),
+        );
+        // They are the top level's alone, not one per run fitted: kept out of the
+        // per-run views.
+        quality.loo_residuals = None;
+        Surrogate::CoKriging {
+            model: Box::new(model),
+            quality,
+        }
+    }
+
     /// A Kriging surrogate with its quality on the responses `y` it was fitted to.
     pub fn kriging(model: Kriging, y: &[f64]) -> Surrogate {
         let parameters = kriging_parameters(&model);
@@ -441,6 +516,7 @@ impl Surrogate {
             Surrogate::Polynomial(fit) => fit.predict(x),
             Surrogate::Kriging { model, .. } => model.predict(x),
             Surrogate::KrigingPerLevel(model) => model.predict(x),
+            Surrogate::CoKriging { model, .. } => model.predict(x),
         }
     }
 
@@ -452,6 +528,7 @@ impl Surrogate {
             Surrogate::Polynomial(fit) => fit.confidence_interval(x, 0.95).map(|i| i.std_error),
             Surrogate::Kriging { model, .. } => Some(model.predict_variance(x).max(0.0).sqrt()),
             Surrogate::KrigingPerLevel(model) => Some(model.mean_std(x)),
+            Surrogate::CoKriging { model, .. } => Some(model.predict_variance(x).max(0.0).sqrt()),
         }
     }
 
@@ -476,6 +553,19 @@ impl Surrogate {
                 })
             }
             Surrogate::KrigingPerLevel(model) => Some(model.prediction_interval(x, confidence)),
+            Surrogate::CoKriging { model, .. } => {
+                let estimate = model.predict(x);
+                let noise = model.level_model(model.top()).noise_variance();
+                let std_error = (model.predict_variance(x).max(0.0) + noise).sqrt();
+                let z = student_t_quantile(0.5 + 0.5 * confidence, 1e9);
+                Some(Interval {
+                    estimate,
+                    std_error,
+                    low: estimate - z * std_error,
+                    high: estimate + z * std_error,
+                    degrees_of_freedom: f64::INFINITY,
+                })
+            }
         }
     }
 
@@ -490,6 +580,7 @@ impl Surrogate {
             Surrogate::Polynomial(fit) => &fit.quality,
             Surrogate::Kriging { quality, .. } => quality,
             Surrogate::KrigingPerLevel(model) => model.quality(),
+            Surrogate::CoKriging { quality, .. } => quality,
         }
     }
 
@@ -500,6 +591,7 @@ impl Surrogate {
             Surrogate::Polynomial(fit) => fit.coefficients.len(),
             Surrogate::Kriging { model, .. } => kriging_parameters(model),
             Surrogate::KrigingPerLevel(model) => model.parameters(),
+            Surrogate::CoKriging { model, .. } => co_kriging_parameters(model),
         }
     }
 
@@ -507,7 +599,9 @@ impl Surrogate {
     pub fn polynomial(&self) -> Option<&Fit> {
         match self {
             Surrogate::Polynomial(fit) => Some(fit),
-            Surrogate::Kriging { .. } | Surrogate::KrigingPerLevel(_) => None,
+            Surrogate::Kriging { .. }
+            | Surrogate::KrigingPerLevel(_)
+            | Surrogate::CoKriging { .. } => None,
         }
     }
 
@@ -550,6 +644,7 @@ impl Surrogate {
             Surrogate::Polynomial(fit) => fit.basis.n_factors,
             Surrogate::Kriging { model, .. } => model.length_scales().len(),
             Surrogate::KrigingPerLevel(model) => model.levels().len(),
+            Surrogate::CoKriging { model, .. } => model.level_model(0).length_scales().len(),
         };
         let uniform = Distribution::Uniform {
             low: -1.0,
@@ -577,6 +672,11 @@ impl Surrogate {
                     .iter()
                     .map(|(c, m)| (c.clone(), kriging_spec(m)))
                     .collect(),
+            },
+            Surrogate::CoKriging { model, .. } => ModelSpec::CoKriging {
+                kernel: model.level_model(0).kernel(),
+                trend: model.level_model(0).trend(),
+                levels: model.hyperparameters(),
             },
         }
     }
@@ -640,6 +740,18 @@ impl Surrogate {
                 KrigingPerLevel::with_hyperparameters(levels, &carriers, x, y)
                     .map(|m| Surrogate::KrigingPerLevel(Box::new(m)))
             }
+            ModelSpec::CoKriging {
+                kernel,
+                trend,
+                levels,
+            } => {
+                let split = split_by_level(x, y);
+                let runs: Vec<LevelRuns<'_>> =
+                    split.iter().map(|(x, y)| LevelRuns { x, y }).collect();
+                CoKriging::with_hyperparameters(&runs, *kernel, *trend, levels)
+                    .map(|model| Surrogate::co_kriging(model, &split[split.len() - 1].1))
+                    .map_err(|e| e.to_string())
+            }
         }
     }
 }
@@ -652,6 +764,13 @@ fn kriging_spec(model: &Kriging) -> ModelSpec {
         process_variance: model.process_variance(),
         noise_variance: model.noise_variance(),
     }
+}
+
+fn co_kriging_parameters(model: &CoKriging) -> usize {
+    // Each level's Kriging parameters, and ρ above level 0.
+    (0..model.n_levels())
+        .map(|t| kriging_parameters(model.level_model(t)) + usize::from(t > 0))
+        .sum()
 }
 
 fn kriging_parameters(model: &Kriging) -> usize {
@@ -930,5 +1049,46 @@ mod tests {
             ),
             "{error}"
         );
+    }
+
+    #[test]
+    fn co_kriging_rebuilds_from_its_spec_to_the_same_predictions() {
+        // Two levels over one factor, the level as the last coordinate.
+        let cheap: Vec<Vec<f64>> = (0..9).map(|i| vec![-1.0 + 0.25 * i as f64, 0.0]).collect();
+        let dear: Vec<Vec<f64>> = [0, 3, 5, 8]
+            .iter()
+            .map(|&i| vec![cheap[i][0], 1.0])
+            .collect();
+        let f = |u: f64| (3.0 * u).sin() + u;
+        let x: Vec<Vec<f64>> = cheap.iter().chain(&dear).cloned().collect();
+        let y: Vec<f64> = x
+            .iter()
+            .map(|p| {
+                if p[1] == 0.0 {
+                    0.5 * f(p[0]) - 0.2
+                } else {
+                    f(p[0])
+                }
+            })
+            .collect();
+        let fitted = Surrogate::fit_co_kriging(&x, &y, &KrigingOptions::default()).unwrap();
+        let spec = fitted.spec();
+        assert!(matches!(spec, ModelSpec::CoKriging { ref levels, .. } if levels.len() == 2));
+        let rebuilt = Surrogate::rebuild(&spec, &names(1), &x, &y).unwrap();
+        for u in [-0.9, -0.3, 0.1, 0.77] {
+            let (a, b) = (fitted.predict(&[u]), rebuilt.predict(&[u]));
+            assert!((a - b).abs() < 1e-9 * (1.0 + a.abs()), "{u}: {a} vs {b}");
+            assert!((a - f(u)).abs() < 0.05, "{u}: {a} vs {}", f(u));
+        }
+        assert_eq!(
+            fitted.quality().runs,
+            4,
+            "quality is of the top level's runs"
+        );
+        assert!(fitted.quality().loo_residuals.is_none());
+        let missing: Vec<Vec<f64>> = dear.clone();
+        let error =
+            Surrogate::fit_co_kriging(&missing, &y[9..], &KrigingOptions::default()).unwrap_err();
+        assert!(error.contains("no run at fidelity level 0"), "{error}");
     }
 }

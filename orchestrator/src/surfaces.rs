@@ -7,6 +7,7 @@
 
 use std::collections::{BTreeMap, HashMap, HashSet};
 
+use orch_metamodel::co_kriging::LevelHyperparameters;
 use orch_metamodel::kriging::{Kernel, Trend};
 use orch_metamodel::surrogate::{ModelSpec, Surrogate};
 use orch_metamodel::{Basis, BasisKind, FactorRange};
@@ -262,11 +263,28 @@ fn spec_value(spec: &ModelSpec) -> serde_json::Value {
             noise_variance,
         } => json!({
             "model": "kriging",
-            "kernel": match kernel { Kernel::Matern52 => "matern52", Kernel::SquaredExponential => "squared_exponential" },
-            "trend": match trend { Trend::Constant => "constant", Trend::Linear => "linear" },
+            "kernel": kernel_name(*kernel),
+            "trend": trend_name(*trend),
             "length_scales": length_scales,
             "process_variance": process_variance,
             "noise_variance": noise_variance,
+        }),
+        ModelSpec::CoKriging {
+            kernel,
+            trend,
+            levels,
+        } => json!({
+            "model": "co_kriging",
+            "kernel": kernel_name(*kernel),
+            "trend": trend_name(*trend),
+            "levels": levels
+                .iter()
+                .map(|l| json!({
+                    "length_scales": l.length_scales,
+                    "process_variance": l.process_variance,
+                    "noise_variance": l.noise_variance,
+                }))
+                .collect::<Vec<_>>(),
         }),
         ModelSpec::KrigingPerLevel { levels, models } => json!({
             "model": "kriging_per_level",
@@ -276,6 +294,20 @@ fn spec_value(spec: &ModelSpec) -> serde_json::Value {
                 .map(|(combination, spec)| json!({"levels": combination, "spec": spec_value(spec)}))
                 .collect::<Vec<_>>(),
         }),
+    }
+}
+
+fn kernel_name(kernel: Kernel) -> &'static str {
+    match kernel {
+        Kernel::Matern52 => "matern52",
+        Kernel::SquaredExponential => "squared_exponential",
+    }
+}
+
+fn trend_name(trend: Trend) -> &'static str {
+    match trend {
+        Trend::Constant => "constant",
+        Trend::Linear => "linear",
     }
 }
 
@@ -299,6 +331,16 @@ fn spec_from_value(value: &serde_json::Value) -> Option<ModelSpec> {
         serde_json::Value::Null => Some(Vec::new()),
         other => small(other),
     };
+    let kernel = || match value["kernel"].as_str()? {
+        "matern52" => Some(Kernel::Matern52),
+        "squared_exponential" => Some(Kernel::SquaredExponential),
+        _ => None,
+    };
+    let trend = || match value["trend"].as_str()? {
+        "constant" => Some(Trend::Constant),
+        "linear" => Some(Trend::Linear),
+        _ => None,
+    };
     match value["model"].as_str()? {
         "polynomial" => Some(ModelSpec::Polynomial {
             kind: basis_kind(value["basis"].as_str()?)?,
@@ -310,19 +352,30 @@ fn spec_from_value(value: &serde_json::Value) -> Option<ModelSpec> {
                 .collect::<Option<_>>()?,
         }),
         "kriging" => Some(ModelSpec::Kriging {
-            kernel: match value["kernel"].as_str()? {
-                "matern52" => Kernel::Matern52,
-                "squared_exponential" => Kernel::SquaredExponential,
-                _ => return None,
-            },
-            trend: match value["trend"].as_str()? {
-                "constant" => Trend::Constant,
-                "linear" => Trend::Linear,
-                _ => return None,
-            },
+            kernel: kernel()?,
+            trend: trend()?,
             length_scales: numbers("length_scales")?,
             process_variance: value["process_variance"].as_f64()?,
             noise_variance: value["noise_variance"].as_f64()?,
+        }),
+        "co_kriging" => Some(ModelSpec::CoKriging {
+            kernel: kernel()?,
+            trend: trend()?,
+            levels: value["levels"]
+                .as_array()?
+                .iter()
+                .map(|l| {
+                    Some(LevelHyperparameters {
+                        length_scales: l["length_scales"]
+                            .as_array()?
+                            .iter()
+                            .map(|v| v.as_f64())
+                            .collect::<Option<_>>()?,
+                        process_variance: l["process_variance"].as_f64()?,
+                        noise_variance: l["noise_variance"].as_f64()?,
+                    })
+                })
+                .collect::<Option<_>>()?,
         }),
         "kriging_per_level" => Some(ModelSpec::KrigingPerLevel {
             levels: levels()?,

@@ -52,7 +52,9 @@ pub(crate) fn propose(
             }
             // A polynomial's next box is the design again around the optimum; a
             // per-level Kriging has no one model to propose a batch from.
-            Surrogate::Polynomial(_) | Surrogate::KrigingPerLevel(_) => None,
+            Surrogate::Polynomial(_)
+            | Surrogate::KrigingPerLevel(_)
+            | Surrogate::CoKriging { .. } => None,
         },
         _ => None,
     };

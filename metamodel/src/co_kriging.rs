@@ -59,7 +59,7 @@
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use crate::improvement::{expected_improvement, Feasibility};
+use crate::improvement::{expected_improvement, Feasibility, MIN_SEPARATION};
 use crate::kriging::{nelder_mead, Kernel, Kriging, KrigingError, KrigingOptions, Stop, Trend};
 use crate::optimise::{BoxBounds, Goal};
 
@@ -468,30 +468,122 @@ pub fn propose_fidelity(
     seed: u64,
     feasible: Feasibility<'_>,
 ) -> Option<FidelityProposal> {
+    propose_apart(model, costs, bounds, goal, seed, feasible, &[])
+}
+
+/// A batch of `batch` runs by the kriging-believer heuristic over levels: propose
+/// ([`propose_fidelity`]), pretend the model's means there were observed at the
+/// proposed level and every level below (designs stay nested), rebuild with the same
+/// hyperparameters, and repeat. No proposal lies within [`MIN_SEPARATION`] of the box
+/// of a run or of another proposal; fewer than `batch` when nothing improves.
+#[allow(clippy::too_many_arguments)]
+pub fn propose_fidelity_batch(
+    model: &CoKriging,
+    costs: &[f64],
+    bounds: &BoxBounds,
+    batch: usize,
+    goal: Goal,
+    seed: u64,
+    feasible: Feasibility<'_>,
+) -> Vec<FidelityProposal> {
+    let mut current = model.clone();
+    let mut proposed: Vec<FidelityProposal> = Vec::with_capacity(batch);
+    for round in 0..batch {
+        let mut taken: Vec<Vec<f64>> = (0..current.n_levels())
+            .flat_map(|t| current.level_model(t).points())
+            .collect();
+        taken.extend(proposed.iter().map(|p| p.point.clone()));
+        let Some(proposal) = propose_apart(
+            &current,
+            costs,
+            bounds,
+            goal,
+            seed.wrapping_add(round as u64),
+            feasible,
+            &taken,
+        ) else {
+            break;
+        };
+        let mut runs: Vec<(Vec<Vec<f64>>, Vec<f64>)> = (0..current.n_levels())
+            .map(|t| {
+                let m = current.level_model(t);
+                (m.points(), m.responses().to_vec())
+            })
+            .collect();
+        for (t, (x, y)) in runs.iter_mut().enumerate().take(proposal.level + 1) {
+            x.push(proposal.point.clone());
+            y.push(current.predict_level(t, &proposal.point).0);
+        }
+        proposed.push(proposal);
+        let level_runs: Vec<LevelRuns<'_>> = runs.iter().map(|(x, y)| LevelRuns { x, y }).collect();
+        let first = current.level_model(0);
+        match CoKriging::with_hyperparameters(
+            &level_runs,
+            first.kernel(),
+            first.trend(),
+            &current.hyperparameters(),
+        ) {
+            Ok(believed) => current = believed,
+            Err(_) => break,
+        }
+    }
+    proposed
+}
+
+/// [`propose_fidelity`] keeping [`MIN_SEPARATION`] of the box from every point of `taken`.
+fn propose_apart(
+    model: &CoKriging,
+    costs: &[f64],
+    bounds: &BoxBounds,
+    goal: Goal,
+    seed: u64,
+    feasible: Feasibility<'_>,
+    taken: &[Vec<f64>],
+) -> Option<FidelityProposal> {
     assert_eq!(costs.len(), model.n_levels(), "one cost per fidelity level");
     let k = bounds.lower.len();
+    let apart = |p: &[f64]| {
+        taken.iter().all(|q| {
+            let d2: f64 = (0..k)
+                .map(|j| {
+                    let width = bounds.upper[j] - bounds.lower[j];
+                    if width > 0.0 {
+                        ((p[j] - q[j]) / width).powi(2)
+                    } else {
+                        0.0
+                    }
+                })
+                .sum();
+            d2.sqrt() >= MIN_SEPARATION
+        })
+    };
     let best = effective_best(model, goal);
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let candidates: Vec<Vec<f64>> = (0..1000 + 500 * k)
         .map(|_| {
             (0..k)
                 .map(|j| rng.random_range(bounds.lower[j]..=bounds.upper[j]))
-                .collect()
+                .collect::<Vec<f64>>()
         })
+        .filter(|p| apart(p))
         .collect();
     let step: Vec<f64> = (0..k)
         .map(|j| 0.05 * (bounds.upper[j] - bounds.lower[j]))
         .collect();
     let mut found: Option<FidelityProposal> = None;
     for level in 0..model.n_levels() {
+        // Zero inside a taken point's neighbourhood, so the local search stays out.
         let negative = |p: &[f64]| {
+            if !apart(p) {
+                return 0.0;
+            }
             -augmented_expected_improvement(model, costs, p, level, best, goal) * feasible(p)
         };
         let mut scored: Vec<(f64, &Vec<f64>)> =
             candidates.iter().map(|p| (negative(p), p)).collect();
         scored.sort_by(|a, b| a.0.total_cmp(&b.0));
-        for (_, start) in scored.iter().take(4) {
-            let (point, value) = nelder_mead(
+        for &(start_value, start) in scored.iter().take(4) {
+            let polished = nelder_mead(
                 &negative,
                 start,
                 &step,
@@ -503,6 +595,11 @@ pub fn propose_fidelity(
                     x_tolerance: 1e-10,
                 },
             );
+            let (point, value) = if polished.1 <= start_value {
+                polished
+            } else {
+                (start.clone(), start_value)
+            };
             let value = -value;
             if value > 0.0 && found.as_ref().is_none_or(|f| value > f.value) {
                 found = Some(FidelityProposal {

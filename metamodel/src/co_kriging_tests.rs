@@ -340,3 +340,51 @@ fn a_cheap_faithful_level_is_proposed_and_an_unrelated_one_is_not() {
         propose_fidelity(&model, &[1.0, 1.0], &bounds, Goal::Minimise, 1, &everywhere).unwrap();
     assert_eq!(proposal.level, 1, "{proposal:?}, correlation {correlation}");
 }
+
+#[test]
+fn a_batch_spreads_its_proposals_and_keeps_them_apart() {
+    let low_x = line(11);
+    let low_y: Vec<f64> = low_x.iter().map(|p| forrester_low(p[0])).collect();
+    let high_x: Vec<Vec<f64>> = [0, 4, 6, 10].iter().map(|&i| low_x[i].clone()).collect();
+    let high_y: Vec<f64> = high_x.iter().map(|p| forrester_high(p[0])).collect();
+    let options = KrigingOptions {
+        kernel: Kernel::SquaredExponential,
+        ..KrigingOptions::default()
+    };
+    let model = CoKriging::fit(
+        &[
+            LevelRuns {
+                x: &low_x,
+                y: &low_y,
+            },
+            LevelRuns {
+                x: &high_x,
+                y: &high_y,
+            },
+        ],
+        &options,
+    )
+    .unwrap();
+    let everywhere = |_: &[f64]| 1.0;
+    let batch = propose_fidelity_batch(
+        &model,
+        &[0.1, 1.0],
+        &BoxBounds::coded(1),
+        3,
+        Goal::Minimise,
+        5,
+        &everywhere,
+    );
+    assert_eq!(batch.len(), 3, "{batch:?}");
+    let mut all: Vec<f64> = low_x.iter().map(|p| p[0]).collect();
+    for p in &batch {
+        assert!(
+            all.iter()
+                .all(|q| (p.point[0] - q).abs() >= 2.0 * MIN_SEPARATION),
+            "{p:?} too close to {all:?}"
+        );
+        all.push(p.point[0]);
+    }
+    // Forrester's minimum is at x ≈ 0.757 (coded 0.514): the first proposal is near it.
+    assert!((batch[0].point[0] - 0.514).abs() < 0.1, "{batch:?}");
+}

@@ -30,7 +30,8 @@ pub mod surrogate;
 
 pub use basis::{Basis, BasisKind};
 pub use co_kriging::{
-    nested_subset, propose_fidelity, CoKriging, CoKrigingError, FidelityProposal, LevelRuns,
+    nested_subset, propose_fidelity, propose_fidelity_batch, CoKriging, CoKrigingError,
+    FidelityProposal, LevelRuns,
 };
 pub use design::{run_count, CentralCompositeAlpha, Design, DesignError, DesignKind, MAX_RUNS};
 pub use fit::{test_quality, Fit, FitError, Interval, Quality, TestQuality};

@@ -158,6 +158,55 @@ pub struct Choice {
     pub by_prognosis: bool,
 }
 
+/// Co-Kriging over fidelity levels as the one candidate of a choice: runs carry their
+/// level as a last coordinate ([`Surrogate::fit_co_kriging`]); its score is the top
+/// level's leave-one-out RMSE, and its name says each level's learned scale `ρ` and
+/// correlation with the level below.
+pub fn choose_co_kriging(
+    x: &[Vec<f64>],
+    y: &[f64],
+    kriging: &KrigingOptions,
+) -> Result<Choice, String> {
+    let surrogate = Surrogate::fit_co_kriging(x, y, kriging)?;
+    let Surrogate::CoKriging { model, quality } = &surrogate else {
+        unreachable!("fit_co_kriging gives co-Kriging");
+    };
+    let candidate = Candidate {
+        name: co_kriging_name(model),
+        parameters: surrogate.parameters(),
+        loo_rmse: quality
+            .press
+            .map(|press| (press / quality.runs.max(1) as f64).sqrt()),
+        note: None,
+    };
+    Ok(Choice {
+        surrogate,
+        candidates: vec![candidate],
+        chosen: 0,
+        by_prognosis: true,
+    })
+}
+
+/// `co-Kriging over 2 fidelity levels, Matérn 5/2, constant trend; level 1: ρ = 1.98,
+/// correlation 0.97`.
+pub fn co_kriging_name(model: &CoKriging) -> String {
+    let first = model.level_model(0);
+    let mut name = format!(
+        "co-kriging over {} fidelity levels, {}",
+        model.n_levels(),
+        kriging_name(first.kernel(), first.trend()).trim_start_matches("kriging, ")
+    );
+    for level in 1..model.n_levels() {
+        let (rho, correlation) = (model.scale_factor(level), model.correlation(level));
+        if let (Some(rho), Some(correlation)) = (rho, correlation) {
+            name.push_str(&format!(
+                "; level {level}: ρ = {rho:.3}, correlation {correlation:.3}"
+            ));
+        }
+    }
+    name
+}
+
 /// Fits the surrogate `model` asks for to responses `y` at coded points `x`;
 /// `kind` is the polynomials' basis, `levels` the text factors' levels (empty or 0
 /// for numeric factors, see [`crate::levels`]) and `kriging` Kriging's settings. The

@@ -631,20 +631,24 @@ async fn compare(
     })
 }
 
-async fn submit(
-    study_file: &Path,
-    project_dir: Option<&Path>,
-    dry_run: bool,
-    as_name: Option<&str>,
-    no_reuse: bool,
-) -> anyhow::Result<i32> {
-    let mut study = Study::load(study_file).map_err(study_error)?;
-    if let Some(name) = as_name {
-        study.rename(name).map_err(input_error)?;
+/// The study's solver, or its levels' (`native (native), fine (liggghts)`).
+fn solvers_text(study: &Study) -> String {
+    if study.fidelities.is_empty() {
+        return study.simulation.solver_name().to_string();
     }
-    study.reuse &= !no_reuse;
-    let solver = study.simulation.solver_name();
-    let command = study.simulation.command();
+    let levels: Vec<String> = study
+        .fidelities
+        .iter()
+        .map(|f| format!("{} ({})", f.name, f.simulation.solver_name()))
+        .collect();
+    format!("fidelity levels {}", levels.join(", "))
+}
+
+/// Refuses a study whose solver (or the programs its command runs behind a wrapper,
+/// or `mpirun` for MPI ranks) is not installed.
+fn check_installed(simulation: &dyn orch_adapters::Simulation) -> anyhow::Result<()> {
+    let solver = simulation.solver_name();
+    let command = simulation.command();
     let program = command.program;
     if command.mpi && !program_exists(&program) {
         return Err(input_error(format!(
@@ -655,7 +659,7 @@ async fn submit(
     if !program_exists(&program) {
         return Err(input_error(format!(
             "the {solver} solver `{program}` is not installed (not found on PATH); install it with `{}` and submit again; nothing was written",
-            study.simulation.install_hint()
+            simulation.install_hint()
         )));
     }
     // Behind a wrapper (`stdbuf -oL`, `mpirun -np 2`, `sh -c "…"`) is the solver itself.
@@ -668,6 +672,33 @@ async fn submit(
             "the study's command runs `{missing}` (behind `{}`), which is not on PATH; install it, or give its full path in the command, and submit again; nothing was written",
             programs[0]
         )));
+    }
+    Ok(())
+}
+
+async fn submit(
+    study_file: &Path,
+    project_dir: Option<&Path>,
+    dry_run: bool,
+    as_name: Option<&str>,
+    no_reuse: bool,
+) -> anyhow::Result<i32> {
+    let mut study = Study::load(study_file).map_err(study_error)?;
+    if let Some(name) = as_name {
+        study.rename(name).map_err(input_error)?;
+    }
+    study.reuse &= !no_reuse;
+    let simulations: Vec<&dyn orch_adapters::Simulation> = if study.fidelities.is_empty() {
+        vec![study.simulation.as_ref()]
+    } else {
+        study
+            .fidelities
+            .iter()
+            .map(|f| f.simulation.as_ref())
+            .collect()
+    };
+    for simulation in simulations {
+        check_installed(simulation)?;
     }
     for stage in &study.stages {
         let stage = stage.stage;
@@ -707,7 +738,11 @@ async fn submit(
                     None => format!("{} = {v:.6} {}", f.name, f.unit),
                 })
                 .collect();
-            outln!("  p{i:03}: {}", values.join(", "))?;
+            let level = match study.fidelities.get(point.fidelity as usize) {
+                Some(level) => format!(" [{} on {}]", level.name, level.simulation.solver_name()),
+                None => String::new(),
+            };
+            outln!("  p{i:03}: {}{level}", values.join(", "))?;
         }
         out!("{}", dry_run_summary(&study))?;
         return Ok(exit_codes::SUCCESS);
@@ -762,7 +797,7 @@ async fn submit(
                 study.job_count(),
                 study.points.len(),
                 study.replicates,
-                solver,
+                solvers_text(&study),
                 study.executor.max_parallel,
                 store.path().display()
             );

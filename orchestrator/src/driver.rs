@@ -340,15 +340,26 @@ impl<E: Executor> Driver<'_, E> {
     /// The case of `job`'s design point with its seed; its point read from the store
     /// when the driver does not hold it.
     async fn case(&self, job: &JobRow) -> Result<orch_adapters::Case, StoreError> {
+        let at = |point: &PointRow| {
+            self.study
+                .case_at_level(&point.natural, point.fidelity, job.seed as u64)
+        };
         if let Some(point) = self.points.get(&job.point_id) {
-            return Ok(self.study.case_at(&point.natural, job.seed as u64));
+            return Ok(at(point));
         }
         let point = self.store.points_by_id(&[job.point_id]).await?;
         let point = point.first().ok_or_else(|| StoreError::Query {
             what: "read a job's design point",
             source: sqlx::Error::RowNotFound,
         })?;
-        Ok(self.study.case_at(&point.natural, job.seed as u64))
+        Ok(at(point))
+    }
+
+    /// What runs `job`'s design point: its fidelity level's simulation (the study's
+    /// without levels). The driver holds the points of the jobs it renders and reads.
+    fn simulation_of(&self, job: &JobRow) -> &std::sync::Arc<dyn orch_adapters::Simulation> {
+        let level = self.points.get(&job.point_id).map_or(0, |p| p.fidelity);
+        self.study.simulation_at(level)
     }
 
     /// Holds the design points of `jobs` (reading those it lacks in one query) and,
@@ -405,8 +416,8 @@ impl<E: Executor> Driver<'_, E> {
     /// Renders a job into its run directory and returns its command, or why not.
     async fn render(&self, job: &JobRow, run_dir: &Path) -> Result<CommandSpec, String> {
         let Some(kind) = job.stage_kind() else {
-            let simulation = &self.study.simulation;
             let case = self.case(job).await.map_err(|e| e.to_string())?;
+            let simulation = self.simulation_of(job);
             simulation
                 .render(&case, run_dir)
                 .map_err(|e| format!("cannot render the case: {e}"))?;
@@ -744,7 +755,7 @@ impl<E: Executor> Driver<'_, E> {
                     continue;
                 }
             };
-            let (simulation, dir) = (self.study.simulation.clone(), run_dir.clone());
+            let (simulation, dir) = (self.simulation_of(job).clone(), run_dir.clone());
             let so_far =
                 tokio::task::spawn_blocking(move || simulation.results_so_far(&case, &dir))
                     .await
@@ -897,7 +908,7 @@ impl<E: Executor> Driver<'_, E> {
     fn log_file(&self, job: &JobRow) -> String {
         match job.stage_kind().and_then(|kind| self.study.stage(kind)) {
             Some(stage) => stage.stage.log_file().to_string(),
-            None => self.study.simulation.command().log_file,
+            None => self.simulation_of(job).command().log_file,
         }
     }
 
@@ -928,7 +939,7 @@ impl<E: Executor> Driver<'_, E> {
     /// job is left for `orch resume`.
     async fn read_run(&mut self, job: &JobRow) -> Result<Read, DriverError> {
         let mut case = self.case(job).await?;
-        let simulation = self.study.simulation.clone();
+        let simulation = self.simulation_of(job).clone();
         let stage = match job.stage_kind() {
             Some(AIR_STAGE) => match self.air_before(job).await {
                 Ok((air, _)) => {
@@ -1141,8 +1152,7 @@ impl<E: Executor> Driver<'_, E> {
                 .map(|r| r.name.as_ref())
                 .collect(),
             None => self
-                .study
-                .simulation
+                .simulation_of(job)
                 .responses()
                 .iter()
                 .map(|r| r.name.as_ref())

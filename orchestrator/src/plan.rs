@@ -238,16 +238,26 @@ pub fn job_seed(study_seed: u64, key: &SeedKey<'_>) -> u64 {
 
 /// The case of `point` as text: every resolved parameter in name order with 12
 /// significant digits (so that the same point reached through another round's box,
-/// with a different last bit, is the same case), then every text value.
+/// with a different last bit, is the same case), then every text value, then the
+/// fidelity level's name above the first level.
 pub fn case_key(study: &Study, point: &DesignPoint) -> String {
     use std::fmt::Write;
-    let case = study.case_at(&point.natural, 0);
+    let case = study.case(point, 0);
     let mut key = String::new();
     for (name, value) in &case.parameters.0 {
         let _ = write!(key, "{name}={value:.11e};");
     }
     for (name, value) in &case.text {
         let _ = write!(key, "{name}:{value};");
+    }
+    // A higher fidelity level's run of the same point is another run, whatever
+    // parameters the level sets (it may differ by its solver alone).
+    if let Some(level) = study
+        .fidelities
+        .get(point.fidelity as usize)
+        .filter(|_| point.fidelity > 0)
+    {
+        let _ = write!(key, "fidelity:{};", level.name);
     }
     key
 }
@@ -281,6 +291,7 @@ mod tests {
         DesignPoint {
             coded: vec![(outlet - 0.024) / 0.004],
             natural: vec![outlet],
+            fidelity: 0,
         }
     }
 

@@ -11,7 +11,7 @@ use std::collections::HashMap;
 use std::path::Path;
 
 use orch_metamodel::propose::converged;
-use orch_metamodel::surrogate::{choose, Choice, Surrogate};
+use orch_metamodel::surrogate::{choose, choose_co_kriging, Choice, Surrogate};
 use orch_metamodel::{lack_of_fit, BasisKind, Goal, KrigingOptions, Nugget};
 
 use crate::store::{
@@ -95,6 +95,7 @@ async fn observed(
     study_id: i64,
     round: i64,
     responses: &[String],
+    leveled: bool,
 ) -> Result<HashMap<String, Observed>, StoreError> {
     // Each of the study's tables is read once. The held-out test runs are taken out
     // first; the design runs then take the rest over (not a copy of it).
@@ -128,10 +129,16 @@ async fn observed(
     let mut out = HashMap::new();
     for response in responses {
         let design = surfaces::observed(&design_runs, response);
+        // Over fidelity levels a run's level rides as a last coordinate (co-Kriging).
+        let coded = if leveled {
+            design.coded_with_level()
+        } else {
+            design.coded
+        };
         out.insert(
             response.clone(),
             Observed {
-                design: (design.coded, design.y),
+                design: (coded, design.y),
                 test: tests.remove(response).unwrap_or_default(),
             },
         );
@@ -158,7 +165,8 @@ async fn analyse(
         .iter()
         .flat_map(|r| [r.clone(), interval_name(r)])
         .collect();
-    let data = observed(store, study_id, round, &with_intervals).await?;
+    let leveled = !study.fidelities.is_empty();
+    let data = observed(store, study_id, round, &with_intervals, leveled).await?;
     let options = study.metamodel.kriging_options(study.seed);
     let previous = previous_length_scales(store, study_id, round, &ranges).await?;
     let mut fits = Vec::new();
@@ -169,6 +177,14 @@ async fn analyse(
             previous_length_scales: previous.get(response).cloned(),
             ..options.clone()
         };
+        if leveled {
+            // Each level's noise is its own (its replicates', else fitted).
+            let choice = choose_co_kriging(x, y, &options);
+            fits.push(fit_record(
+                response, basis_name, observed, choice, study.seed,
+            ));
+            continue;
+        }
         let options = match noise_from_intervals(x, y, &data[&interval_name(response)]) {
             Some(variance) => KrigingOptions {
                 nugget: Nugget::Fixed(variance),

@@ -1472,6 +1472,7 @@ mod tests {
             job: format!("p{x}"),
             coded: vec![x],
             natural: vec![0.024 + 0.004 * x],
+            fidelity: 0,
             responses: [("fraction".to_string(), 1.0), ("rate".to_string(), rate)]
                 .into_iter()
                 .collect(),

@@ -27,6 +27,8 @@ pub struct Run {
     pub coded: Vec<f64>,
     /// Natural factor values (SI units).
     pub natural: Vec<f64>,
+    /// Its fidelity level (0 the cheapest).
+    pub fidelity: u32,
     /// Its responses, by name.
     pub responses: ResponseValues,
 }
@@ -47,8 +49,35 @@ pub struct Observed {
     pub coded: Vec<Vec<f64>>,
     /// Natural points.
     pub natural: Vec<Vec<f64>>,
+    /// Fidelity level of each run (0 the cheapest).
+    pub fidelity: Vec<u32>,
     /// Observed values.
     pub y: Vec<f64>,
+}
+
+impl Observed {
+    /// Coded points with the fidelity level as a last coordinate: what a co-Kriging
+    /// surrogate is fitted to ([`Surrogate::fit_co_kriging`]).
+    pub fn coded_with_level(&self) -> Vec<Vec<f64>> {
+        self.coded
+            .iter()
+            .zip(&self.fidelity)
+            .map(|(p, &level)| p.iter().copied().chain([f64::from(level)]).collect())
+            .collect()
+    }
+
+    /// The runs at fidelity level `level`: job names, coded points and values.
+    pub fn at_level(&self, level: u32) -> Observed {
+        let mut out = Observed::default();
+        for i in (0..self.y.len()).filter(|&i| self.fidelity[i] == level) {
+            out.jobs.push(self.jobs[i].clone());
+            out.coded.push(self.coded[i].clone());
+            out.natural.push(self.natural[i].clone());
+            out.fidelity.push(level);
+            out.y.push(self.y[i]);
+        }
+        out
+    }
 }
 
 /// Succeeded design runs each round's fits use, by round: the round's own and every
@@ -210,6 +239,7 @@ fn own_design_runs<J: JobLink>(
             job: job.name().to_string(),
             coded: point.coded.clone(),
             natural: point.natural.clone(),
+            fidelity: point.fidelity,
         });
     }
     out
@@ -223,6 +253,7 @@ pub fn observed(runs: &[Run], response: &str) -> Observed {
             observed.jobs.push(run.job.clone());
             observed.coded.push(run.coded.clone());
             observed.natural.push(run.natural.clone());
+            observed.fidelity.push(run.fidelity);
             observed.y.push(value);
         }
     }
@@ -409,7 +440,11 @@ pub fn refit(fit: &StoredFit, factor_names: &[String], observed: &Observed) -> O
             .terms,
         },
     };
-    Surrogate::rebuild(&spec, factor_names, &observed.coded, &observed.y).ok()
+    let coded = match spec {
+        ModelSpec::CoKriging { .. } => observed.coded_with_level(),
+        _ => observed.coded.clone(),
+    };
+    Surrogate::rebuild(&spec, factor_names, &coded, &observed.y).ok()
 }
 
 /// Base samples of the Monte Carlo Sobol indices of a surrogate that has no exact
@@ -452,6 +487,7 @@ mod tests {
             job: format!("j{}", coded[0]),
             natural: coded.clone(),
             coded,
+            fidelity: 0,
             responses: [("y".to_string(), value)].into_iter().collect(),
         }
     }
@@ -507,6 +543,7 @@ mod tests {
             round,
             idx: 0,
             purpose: "design".into(),
+            fidelity: 0,
             coded: vec![1.0],
             natural: vec![0.028],
         };
@@ -546,6 +583,7 @@ mod tests {
             job: job.into(),
             coded: vec![coded],
             natural: vec![natural],
+            fidelity: 0,
             responses: Default::default(),
         };
         // Round 0 over [0, 10]; round 1 over [4, 8].

@@ -5,11 +5,14 @@ use std::collections::HashMap;
 use orch_metamodel::improvement::probability_within;
 use orch_metamodel::propose::{least_certain, shrink_around};
 use orch_metamodel::surrogate::Surrogate;
-use orch_metamodel::{propose_batch, FactorRange, Goal, KrigingOptions, Optimum};
+use orch_metamodel::{
+    propose_batch, propose_fidelity_batch, FactorRange, FidelityProposal, Goal, KrigingOptions,
+    Optimum,
+};
 
 use super::objective::{held_at_mean, Inputs, ObjectiveSurface};
 use super::Observed;
-use crate::study::{DesignPoint, Study};
+use crate::study::{nested_points, DesignPoint, Study};
 
 /// The next round's box and design points, and how they were chosen (for the note).
 pub(crate) struct NextRound {
@@ -40,16 +43,48 @@ pub(crate) fn propose(
 ) -> NextRound {
     let k = ranges.len();
     let objective = surface.objective;
+    let goal_of = |weight: f64| match (objective.goal, weight >= 0.0) {
+        (goal, true) => goal,
+        (Goal::Maximise, false) => Goal::Minimise,
+        (Goal::Minimise, false) => Goal::Maximise,
+    };
+    // Expected improvement weighted by the probability that every constraint holds,
+    // each from its own surface's mean and standard error.
+    let feasible = |p: &[f64]| {
+        objective
+            .constraints
+            .iter()
+            .filter_map(|(name, min, max)| {
+                let surface = surface.surfaces.get(name)?;
+                Some(probability_within(
+                    surface.predict(p),
+                    surface.mean_std(p),
+                    *min,
+                    *max,
+                ))
+            })
+            .product::<f64>()
+    };
+    if let [(response, weight)] = objective.terms.as_slice() {
+        if let Surrogate::CoKriging { model, .. } = &surface.surfaces[response] {
+            let costs: Vec<f64> = study.fidelities.iter().map(|f| f.cost).collect();
+            let proposals = propose_fidelity_batch(
+                model,
+                &costs,
+                &inputs.bounds,
+                study.executor.max_parallel.max(2),
+                goal_of(*weight),
+                study.seed.wrapping_add(round as u64),
+                &feasible,
+            );
+            if !proposals.is_empty() {
+                return fidelity_batch(study, ranges, &proposals);
+            }
+        }
+    }
     let kriging = match objective.terms.as_slice() {
         [(response, weight)] => match &surface.surfaces[response] {
-            Surrogate::Kriging { model, .. } => {
-                let goal = match (objective.goal, *weight >= 0.0) {
-                    (goal, true) => goal,
-                    (Goal::Maximise, false) => Goal::Minimise,
-                    (Goal::Minimise, false) => Goal::Maximise,
-                };
-                Some((response, model, goal))
-            }
+            Surrogate::Kriging { model, .. } => Some((response, model, goal_of(*weight))),
             // A polynomial's next box is the design again around the optimum; a
             // per-level Kriging has no one model to propose a batch from.
             Surrogate::Polynomial(_)
@@ -63,23 +98,6 @@ pub(crate) fn propose(
             let batch = study.executor.max_parallel.max(2);
             let (x, y) = &data[response].design;
             let seed = study.seed.wrapping_add(round as u64);
-            // Expected improvement weighted by the probability that every constraint
-            // holds, each from its own surface's mean and standard error.
-            let feasible = |p: &[f64]| {
-                objective
-                    .constraints
-                    .iter()
-                    .filter_map(|(name, min, max)| {
-                        let surface = surface.surfaces.get(name)?;
-                        Some(probability_within(
-                            surface.predict(p),
-                            surface.mean_std(p),
-                            *min,
-                            *max,
-                        ))
-                    })
-                    .product::<f64>()
-            };
             let points = propose_batch(
                 model,
                 x,
@@ -144,12 +162,52 @@ pub(crate) fn propose(
         .into_iter()
         .map(|coded| study.point(coded, &next_ranges))
         .collect();
+    // Over fidelity levels the design runs at the first level and nested subsets of
+    // it at the others, as in the first round.
+    let points = nested_points(points, &study.fidelities);
     NextRound {
         ranges: next_ranges,
         points,
         how: format!(
             "{how}, and {probed} run{} where the surrogate is least certain",
             if probed == 1 { "" } else { "s" }
+        ),
+    }
+}
+
+/// The next round of a co-Kriging objective: each proposed point at its level and
+/// every level below (designs stay nested), in the same box.
+fn fidelity_batch(
+    study: &Study,
+    ranges: &[FactorRange],
+    proposals: &[FidelityProposal],
+) -> NextRound {
+    let mut points = Vec::new();
+    for level in 0..study.fidelities.len() {
+        points.extend(
+            proposals
+                .iter()
+                .filter(|p| p.level >= level)
+                .map(|p| DesignPoint {
+                    fidelity: level as u32,
+                    ..study.point(p.point.clone(), ranges)
+                }),
+        );
+    }
+    let mut per_level: Vec<String> = Vec::new();
+    for (level, fidelity) in study.fidelities.iter().enumerate() {
+        let n = proposals.iter().filter(|p| p.level == level).count();
+        if n > 0 {
+            per_level.push(format!("{n} up to {}", fidelity.name));
+        }
+    }
+    NextRound {
+        ranges: ranges.to_vec(),
+        points,
+        how: format!(
+            "{} points of largest cost-weighted expected improvement over the fidelity levels ({}; each also run at the levels below) in the same box",
+            proposals.len(),
+            per_level.join(", ")
         ),
     }
 }

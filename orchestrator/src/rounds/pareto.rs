@@ -350,6 +350,7 @@ mod tests {
         let taken = [DesignPoint {
             coded: vec![0.0],
             natural: vec![0.5],
+            fidelity: 0,
         }];
         let samples = front_samples(&front, &ranges, 3, &taken, &[]);
         let natural: Vec<f64> = samples.iter().map(|p| p.natural[0]).collect();

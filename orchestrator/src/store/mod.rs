@@ -616,11 +616,11 @@ impl Store {
                 .map_or((i64::MIN, i64::MIN), |p| (p.round, p.idx));
             let rows = sqlx::query(
                 "WITH page AS (
-                     SELECT id, round, idx, purpose FROM points
+                     SELECT id, round, idx, purpose, fidelity FROM points
                       WHERE study_id = ?1 AND (round, idx) > (?2, ?3)
                       ORDER BY round, idx LIMIT ?4
                  )
-                 SELECT p.id, p.round, p.idx, v.coded, v.natural, p.purpose FROM page p
+                 SELECT p.id, p.round, p.idx, v.coded, v.natural, p.purpose, p.fidelity FROM page p
                  JOIN point_values v ON v.point_id = p.id ORDER BY p.round, p.idx, v.factor_idx",
             )
             .bind(study_id)
@@ -646,7 +646,7 @@ impl Store {
         }
         let ids = serde_json::to_string(ids).expect("JSON of integers");
         let rows = sqlx::query(
-            "SELECT p.id, p.round, p.idx, v.coded, v.natural, p.purpose FROM points p
+            "SELECT p.id, p.round, p.idx, v.coded, v.natural, p.purpose, p.fidelity FROM points p
              JOIN point_values v ON v.point_id = p.id
              WHERE p.id IN (SELECT value FROM json_each(?)) ORDER BY p.id, v.factor_idx",
         )
@@ -1288,12 +1288,13 @@ pub(crate) async fn insert_planned(
 ) -> Result<(), StoreError> {
     for point in planned {
         let point_id: i64 = sqlx::query(
-            "INSERT INTO points (study_id, round, idx, purpose) VALUES (?, ?, ?, ?) RETURNING id",
+            "INSERT INTO points (study_id, round, idx, purpose, fidelity) VALUES (?, ?, ?, ?, ?) RETURNING id",
         )
         .bind(study_id)
         .bind(round)
         .bind(point.idx as i64)
         .bind(point.purpose.as_str())
+        .bind(i64::from(point.point.fidelity))
         .fetch_one(&mut *tx)
         .await
         .map_err(query_error("record a design point"))?
@@ -1440,6 +1441,7 @@ fn collect_points(rows: Vec<sqlx::sqlite::SqliteRow>) -> Vec<PointRow> {
                 round: row.get(1),
                 idx: row.get(2),
                 purpose: row.get(5),
+                fidelity: row.get::<i64, _>(6) as u32,
                 coded: Vec::new(),
                 natural: Vec::new(),
             });

@@ -558,6 +558,8 @@ pub struct PointRow {
     pub idx: i64,
     /// `design` (fitted) or `test` (held out).
     pub purpose: String,
+    /// Fidelity level (0 the cheapest; 0 in a study without levels).
+    pub fidelity: u32,
     /// Coded values.
     pub coded: Vec<f64>,
     /// Natural values.

@@ -57,6 +57,17 @@ impl Checker<'_> {
         &self,
         file: &StudyFile,
     ) -> Result<EquipmentOnSolver, StudyError> {
+        self.builtin_simulation_on(file, file.solver.as_deref(), "solver")
+    }
+
+    /// The study's equipment on the solver `solver` (`field` names where it is
+    /// written, for errors).
+    pub(super) fn builtin_simulation_on(
+        &self,
+        file: &StudyFile,
+        solver: Option<&str>,
+        field: &str,
+    ) -> Result<EquipmentOnSolver, StudyError> {
         if file.case.is_some() {
             return Err(self.error(
                 "case",
@@ -73,10 +84,10 @@ impl Checker<'_> {
                 ),
             )
         })?;
-        let Some(solver_name) = &file.solver else {
+        let Some(solver_name) = solver else {
             // The key is absent, so the error points at the top of the file.
             let mut error = self.error(
-                "solver",
+                field,
                 format!("expected `solver:`, one of: {}", solver_names().join(", ")),
             );
             error
@@ -86,7 +97,7 @@ impl Checker<'_> {
         };
         let solver = solver_for(solver_name).ok_or_else(|| {
             self.error(
-                "solver",
+                field,
                 format!(
                     "unknown solver `{solver_name}`; expected one of: {}",
                     solver_names().join(", ")
@@ -100,7 +111,7 @@ impl Checker<'_> {
                 .map(|s| s.name)
                 .collect();
             self.error(
-                "solver",
+                field,
                 format!(
                     "the {} solver has no template for the {equipment_name} equipment; expected one of: {}",
                     solver.name,

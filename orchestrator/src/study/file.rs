@@ -97,6 +97,33 @@ pub struct StudyFile {
     /// again (default `true`).
     #[serde(default)]
     pub reuse: Option<bool>,
+    /// Fidelity levels, cheapest first: each design point runs at the first, nested
+    /// subsets of them at the next ones, and every response is fitted by co-Kriging
+    /// over the levels.
+    #[serde(default)]
+    pub fidelity: Vec<FidelityFile>,
+}
+
+/// One fidelity level (`fidelity: [{name: coarse, cost: 1}, {name: fine, cost: 8,
+/// runs: 5, fixed: {n_particles: 4000}}]`).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FidelityFile {
+    /// Its name: letters, digits, `-` and `_`.
+    pub name: String,
+    /// Its solver, when not the study's (built-in equipment only).
+    #[serde(default)]
+    pub solver: Option<String>,
+    /// Cost of one run, in any unit the levels share (core-seconds, say); rising
+    /// from level to level.
+    pub cost: f64,
+    /// How many of the level below's design points also run here (every level but
+    /// the first).
+    #[serde(default)]
+    pub runs: Option<usize>,
+    /// Template parameters set at this level, over the study's `fixed:`.
+    #[serde(default)]
+    pub fixed: BTreeMap<String, FixedValue>,
 }
 
 /// `coupling:` of a study: the staggered DEM ↔ air iteration.

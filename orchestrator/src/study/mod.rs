@@ -4,6 +4,7 @@
 //! file, the line and column, the field and what was expected ([`StudyError`]).
 
 mod custom;
+mod fidelity;
 mod file;
 mod locate;
 
@@ -25,6 +26,7 @@ use orch_metamodel::{
 };
 use sha2::{Digest, Sha256};
 
+pub use fidelity::{nested_points, Fidelity};
 use file::{
     AlphaFile, BasisFile, DesignFile, DesignType, DistributionFile, ExecutorFile, FixedValue,
     GoalFile, KernelFile, ModelFile, TrendFile,
@@ -96,6 +98,9 @@ pub struct DesignPoint {
     pub coded: Vec<f64>,
     /// Coordinates in natural units.
     pub natural: Vec<f64>,
+    /// Its fidelity level (0 the cheapest, and the only one of a study without
+    /// `fidelity:`).
+    pub fidelity: u32,
 }
 
 impl DesignPoint {
@@ -122,6 +127,7 @@ impl DesignPoint {
                 })
                 .collect(),
             coded,
+            fidelity: 0,
         }
     }
 }
@@ -393,6 +399,8 @@ pub struct Study {
     pub stop_when: Option<StopWhen>,
     /// The staggered DEM ↔ air iteration after each design job (`coupling:`).
     pub coupling: Option<Coupling>,
+    /// Fidelity levels, cheapest first (`fidelity:`); empty for one level.
+    pub fidelities: Vec<Fidelity>,
     /// The file's text, kept in the store.
     pub file_text: String,
     /// Files the study names relative to itself (a user's deck's templates and side
@@ -619,13 +627,29 @@ impl Study {
         self.coded_design(&kind)
             .unwrap_or_default()
             .into_iter()
-            .map(|coded| self.point(coded, ranges))
+            .map(|coded| DesignPoint {
+                fidelity: self.top_fidelity(),
+                ..self.point(coded, ranges)
+            })
             .collect()
     }
 
-    /// The fully resolved case of `point` with the solver seed `seed`.
+    /// The fully resolved case of `point` (at its fidelity level) with the solver
+    /// seed `seed`.
     pub fn case(&self, point: &DesignPoint, seed: u64) -> Case {
-        self.case_at(&point.natural, seed)
+        self.case_at_level(&point.natural, point.fidelity, seed)
+    }
+
+    /// What runs at fidelity level `level`: the level's simulation, or the study's.
+    pub fn simulation_at(&self, level: u32) -> &Arc<dyn Simulation> {
+        self.fidelities
+            .get(level as usize)
+            .map_or(&self.simulation, |f| &f.simulation)
+    }
+
+    /// The top fidelity level (0 without levels).
+    pub fn top_fidelity(&self) -> u32 {
+        self.fidelities.len().saturating_sub(1) as u32
     }
 
     /// The stage of kind `kind`, if the study has it.
@@ -659,10 +683,19 @@ impl Study {
             .map(|r| r.unit.as_ref())
     }
 
-    /// The fully resolved case at natural factor values `natural` (in factor order).
+    /// The fully resolved case at natural factor values `natural` (in factor order),
+    /// at the first fidelity level.
     pub fn case_at(&self, natural: &[f64], seed: u64) -> Case {
-        let mut parameters = ResolvedParameters::defaults(self.simulation.parameters());
-        for (name, value) in &self.fixed {
+        self.case_at_level(natural, 0, seed)
+    }
+
+    /// The fully resolved case at natural factor values `natural` at fidelity level
+    /// `level`: the level's parameters over the study's `fixed:`.
+    pub fn case_at_level(&self, natural: &[f64], level: u32, seed: u64) -> Case {
+        let simulation = self.simulation_at(level);
+        let mut parameters = ResolvedParameters::defaults(simulation.parameters());
+        let level_fixed = self.fidelities.get(level as usize).map(|f| &f.fixed);
+        for (name, value) in self.fixed.iter().chain(level_fixed.into_iter().flatten()) {
             parameters.set(name, *value);
         }
         let mut text = self.fixed_text.clone();
@@ -1315,6 +1348,8 @@ impl Checker<'_> {
                 ));
             }
         }
+        let fidelities = self.fidelities(&file, &simulation, points.len())?;
+        let points = nested_points(points, &fidelities);
         let stages = self.stages(&file, simulation.as_ref())?;
         let known_responses = known_responses(simulation.as_ref(), &stages);
         for (i, response) in file.responses.iter().enumerate() {
@@ -1628,6 +1663,7 @@ impl Checker<'_> {
                 == Some(file::MissingResponseFile::Fail),
             keep: file.keep,
             reuse: file.reuse.unwrap_or(true),
+            fidelities,
             file_text: text.to_string(),
             inputs,
             file_sha256,
@@ -1643,9 +1679,10 @@ impl Checker<'_> {
         };
         for (index, point) in checked_points.iter().enumerate() {
             let case = study.case(point, 0);
-            let checked = study.simulation.check(&case).and_then(|()| {
+            let simulation = study.simulation_at(point.fidelity);
+            let checked = simulation.check(&case).and_then(|()| {
                 if user_templates {
-                    study.simulation.render_texts(&case).map(drop)
+                    simulation.render_texts(&case).map(drop)
                 } else {
                     Ok(())
                 }

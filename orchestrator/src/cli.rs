@@ -718,7 +718,7 @@ async fn submit(
             study.replicates,
             study.job_count(),
             study.simulation.equipment_name(),
-            study.simulation.solver_name()
+            solvers_text(&study)
         )?;
         for stage in &study.stages {
             outln!(
@@ -739,6 +739,9 @@ async fn submit(
                 })
                 .collect();
             let level = match study.fidelities.get(point.fidelity as usize) {
+                Some(level) if level.name == level.simulation.solver_name() => {
+                    format!(" [{}]", level.name)
+                }
                 Some(level) => format!(" [{} on {}]", level.name, level.simulation.solver_name()),
                 None => String::new(),
             };

@@ -253,3 +253,7 @@ impl Checker<'_> {
         Ok(fixed)
     }
 }
+
+#[cfg(test)]
+#[path = "fidelity_tests.rs"]
+mod tests;

@@ -73,8 +73,8 @@ fn a_twin_at_a_higher_level_is_another_run_with_its_own_seed() {
     ))
     .unwrap();
     let alone = plan_points(&single, 0, &single.points, PointPurpose::Design);
-    for i in 0..9 {
-        assert_eq!(seed_of(i), alone[i].jobs[0].seed, "point {i}");
+    for (i, point) in alone.iter().enumerate() {
+        assert_eq!(seed_of(i), point.jobs[0].seed, "point {i}");
     }
 }
 

@@ -102,6 +102,23 @@ pub fn study_text(
         .and_then(Value::as_mapping)
         .cloned()
         .unwrap_or_default();
+    // Over fidelity levels the noise is the top level's: its solver and parameters.
+    if let Some(top) = map
+        .remove(key("fidelity"))
+        .and_then(|levels| levels.as_sequence()?.last().cloned())
+    {
+        if let Some(solver) = top.get("solver") {
+            map.insert(key("solver"), solver.clone());
+        }
+        for (name, value) in top
+            .get("fixed")
+            .and_then(Value::as_mapping)
+            .into_iter()
+            .flatten()
+        {
+            fixed.insert(name.clone(), value.clone());
+        }
+    }
     for (index, factor) in parent.factors.iter().enumerate() {
         if !noise.tolerances.iter().any(|(i, _)| *i == index) {
             // A text factor is fixed at its level's text, as the deck saw it.
@@ -400,6 +417,22 @@ uncertainty:
         // Written again from the same optimum, it is the same study (same hash).
         let again = study_text(&parent, "cone", noise, &[0.004, -0.002]).unwrap();
         assert_eq!(again, text);
+    }
+
+    #[test]
+    fn a_multi_fidelity_parent_is_replicated_at_its_top_level() {
+        let text = PARENT.replace(
+            "rounds: 2\n",
+            "rounds: 2\nfidelity:\n  - {name: coarse, cost: 1}\n  - {name: dear, solver: liggghts, cost: 5, runs: 4, fixed: {n_particles: 3000}}\n",
+        );
+        let parent = Study::from_text(Path::new("jobs/cone.yaml"), &text, None).unwrap();
+        assert_eq!(parent.fidelities.len(), 2);
+        let noise = parent.uncertainty.as_ref().unwrap().noise.as_ref().unwrap();
+        let child_text = study_text(&parent, "cone", noise, &[0.004, -0.002]).unwrap();
+        let child = Study::from_text(Path::new("jobs/cone.yaml"), &child_text, None).unwrap();
+        assert!(child.fidelities.is_empty(), "{child_text}");
+        assert_eq!(child.simulation.solver_name(), "liggghts");
+        assert_eq!(child.fixed["n_particles"], 3000.0);
     }
 
     #[test]

@@ -77,7 +77,8 @@ pub struct PlannedPoint<'a> {
 /// One job of a planned point.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct PlannedJob {
-    /// Name within the study (`p000r0`, `r1-p003r2`, `p000r0-cfd`).
+    /// Name within the study (`p000r0`, `r1-p003r2`, `p000r0-cfd`, and
+    /// `p007r0-fine` for point p007's run at the fidelity level `fine`).
     pub name: String,
     /// Replicate number of its design job.
     pub replicate: u32,
@@ -110,6 +111,7 @@ pub fn plan_points<'a>(
     let coupled = study.coupling.as_ref().filter(|_| !stages.is_empty());
     let mut occurrences: std::collections::HashMap<String, u32> = Default::default();
     let mut planned = Vec::with_capacity(points.len());
+    let mut twins_taken: std::collections::HashSet<(u32, usize)> = Default::default();
     for (number, point) in points.iter().enumerate() {
         let case = case_key(study, point);
         let occurrence = occurrences.entry(case.clone()).or_default();
@@ -121,10 +123,28 @@ pub fn plan_points<'a>(
             stream: DESIGN_STAGE,
         };
         *occurrence += 1;
+        // A higher fidelity level's run is named after its twin at the first level:
+        // `p007r0-liggghts` runs p007r0's point on the level called `liggghts`.
+        let (twin_of, level) = match study.fidelities.get(point.fidelity as usize) {
+            Some(fidelity) if point.fidelity > 0 => {
+                // A repeated point's twins take its repeats in turn.
+                let twin = (0..points.len()).find(|&i| {
+                    points[i].fidelity == 0
+                        && points[i].coded == point.coded
+                        && twins_taken.insert((point.fidelity, i))
+                });
+                (twin, format!("-{}", fidelity.name))
+            }
+            _ => (None, String::new()),
+        };
         let mut jobs = Vec::new();
         for replicate in 0..study.replicates {
             let key = SeedKey { replicate, ..key };
-            let name = format!("{prefix}{}{number:03}r{replicate}", purpose.letter());
+            let name = format!(
+                "{prefix}{}{:03}r{replicate}{level}",
+                purpose.letter(),
+                twin_of.unwrap_or(number)
+            );
             let design_job = jobs.len();
             jobs.push(PlannedJob {
                 name: name.clone(),

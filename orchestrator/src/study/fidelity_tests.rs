@@ -66,6 +66,10 @@ fn a_twin_at_a_higher_level_is_another_run_with_its_own_seed() {
         .position(|p| p.fidelity == 0 && p.coded == study.points[9].coded)
         .unwrap();
     assert_ne!(seed_of(twin), seed_of(9));
+    // Named after its twin: the first fine run is the centre's, p004's.
+    assert_eq!(twin, 4);
+    assert_eq!(planned[9].jobs[0].name, "p004r0-fine");
+    assert_eq!(planned[twin].jobs[0].name, "p004r0");
     // The first level's seeds are those of the same study without levels.
     let single = load(&text.replace(
         "fidelity:\n  - {name: coarse, cost: 1}\n  - {name: fine, cost: 4, runs: 4}\n",

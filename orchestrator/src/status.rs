@@ -87,6 +87,8 @@ pub struct JobDetail {
     pub job: JobRow,
     /// Index of its design point.
     pub point: i64,
+    /// Fidelity level of its point (0 the cheapest).
+    pub fidelity: u32,
     /// Coded factor values.
     pub coded: Vec<f64>,
     /// Natural factor values.
@@ -100,6 +102,7 @@ impl JobDetail {
     fn of(job: JobRow, point: &PointRow, responses: ResponseValues) -> JobDetail {
         JobDetail {
             point: point.idx,
+            fidelity: point.fidelity,
             coded: point.coded.clone(),
             natural: point.natural.clone(),
             responses: responses.into_map(),
@@ -523,6 +526,7 @@ fn job_json(d: &JobDetail, factors: &[FactorRow]) -> Value {
         "scheduler_state": d.job.scheduler_state,
         "run_dir": d.job.run_dir,
         "point": d.point,
+        "fidelity": d.fidelity,
         "replicate": d.job.replicate,
         "seed": d.job.seed,
         "identity": d.job.identity,

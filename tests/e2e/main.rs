@@ -15,6 +15,7 @@ mod cores;
 mod crash_resume;
 mod custom;
 mod faults;
+mod fidelity;
 mod native;
 mod noise;
 mod openfoam;

@@ -1203,6 +1203,35 @@ fn kriging_lines(fit: &StoredFit, factors: &[String]) -> String {
                 })
                 .collect()
         }
+        Some(ModelSpec::CoKriging {
+            kernel,
+            trend,
+            levels,
+        }) => {
+            let names: Vec<&String> = factors.iter().collect();
+            levels
+                .iter()
+                .enumerate()
+                .map(|(t, level)| {
+                    let spec = ModelSpec::Kriging {
+                        kernel,
+                        trend,
+                        length_scales: level.length_scales.clone(),
+                        process_variance: level.process_variance,
+                        noise_variance: level.noise_variance,
+                    };
+                    let what = if t == 0 {
+                        "its own Kriging"
+                    } else {
+                        "ρ times the level below plus its own Kriging"
+                    };
+                    format!(
+                        "  fidelity level {t} ({what}):\n{}",
+                        one(&spec, &names, "    ")
+                    )
+                })
+                .collect()
+        }
         _ => String::new(),
     }
 }
@@ -1651,6 +1680,7 @@ mod tests {
                 reused_from: None,
             },
             point: id,
+            fidelity: 0,
             coded: vec![-1.0 + 0.5 * id as f64],
             natural: vec![0.02 + 1e-3 * id as f64],
             responses: if id == 2 {

@@ -208,4 +208,21 @@ fn native_and_liggghts_levels_of_one_hopper_agree_up_to_a_learned_scale() {
     let (rho, correlation) = (number_after("ρ = "), number_after("correlation "));
     assert!((0.5..1.5).contains(&rho), "{model}");
     assert!(correlation > 0.8, "{model}");
+    // `orch fit` gives each level's length scales and noise; the report both levels.
+    let fit = text(&project.run(&["fit", "hopper-multi-fidelity"]).stdout);
+    assert!(
+        fit.contains("fidelity level 0 (its own Kriging)")
+            && fit.contains("fidelity level 1 (ρ times the level below plus its own Kriging)"),
+        "{fit}"
+    );
+    let output = project.run(&["report", "hopper-multi-fidelity"]);
+    assert_eq!(output.status.code(), Some(0), "{}", text(&output.stderr));
+    let page = std::path::PathBuf::from(text(&output.stdout).trim());
+    if let Some(dom) = rendered_dom(&page, project.dir.path()) {
+        assert!(
+            dom.contains("<td>liggghts</td>"),
+            "no LIGGGHTS level in the report"
+        );
+        assert!(dom.contains("Fidelity levels: discharge_rate along outlet_diameter"));
+    }
 }

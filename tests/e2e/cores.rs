@@ -1,6 +1,7 @@
 //! One run on many cores (`executor.cores_per_job`): LIGGGHTS on two MPI ranks (on this
-//! machine, and spread over the two one-CPU nodes of the Slurm test cluster) and the
-//! native kernel on two threads, against the same studies on one core.
+//! machine, and spread over both two-CPU nodes of the Slurm test cluster, one rank per
+//! node) and the native kernel on two threads (here, and on one node of the cluster),
+//! against the same studies on one core.
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -110,12 +111,12 @@ fn liggghts_on_two_mpi_ranks_here_and_across_two_slurm_nodes_discharges_like_one
         assert!((b / a - 1.0).abs() <= 0.10, "{name}: {a} vs {b} kg/s");
     }
 
-    // The same two ranks on the Slurm test cluster, whose nodes have one CPU each: each
-    // job's ranks run on both nodes, mpirun starting the second through Slurm.
+    // The same two ranks on the Slurm test cluster, one per node (its nodes have two
+    // CPUs each, so only `--ntasks-per-node=1` spreads them): each job's ranks run on
+    // both nodes, mpirun starting the second through Slurm.
     let Some(conf) = slurm else { return };
     let cluster = Project::on_slurm(&conf);
-    let executor =
-        "{kind: slurm, cores_per_job: 2, time_limit: 5min, retries: 0, poll_interval: 1s}";
+    let executor = "{kind: slurm, cores_per_job: 2, time_limit: 5min, retries: 0, poll_interval: 1s, extra_sbatch: ['--ntasks-per-node=1']}";
     let file = cluster.write(
         "liggghts-2-slurm.yaml",
         &study_on("liggghts-2-slurm", "liggghts", executor, 1000),
@@ -149,6 +150,9 @@ fn liggghts_on_two_mpi_ranks_here_and_across_two_slurm_nodes_discharges_like_one
 
 #[test]
 fn the_native_kernel_on_two_threads_gives_the_responses_of_one_bit_for_bit() {
+    // The Slurm part's locks first, in the order the Slurm tests take them.
+    let slurm = require_slurm();
+    let _cluster = slurm.as_ref().map(|_| slurm_lock());
     let _lock = solver_lock();
     let project = Project::new();
     let (one, one_wall) = run(&project, "native", 1, 600);
@@ -180,5 +184,36 @@ fn the_native_kernel_on_two_threads_gives_the_responses_of_one_bit_for_bit() {
                 "{log}"
             );
         }
+    }
+
+    // Two threads on one node of the Slurm cluster: one task on two CPUs, the same
+    // responses bit for bit.
+    let Some(conf) = slurm else { return };
+    let cluster = Project::on_slurm(&conf);
+    let executor =
+        "{kind: slurm, cores_per_job: 2, time_limit: 5min, retries: 0, poll_interval: 1s}";
+    let file = cluster.write(
+        "native-2-slurm.yaml",
+        &study_on("native-2-slurm", "native", executor, 600),
+    );
+    let output = cluster.run(&["submit", file.to_str().unwrap()]);
+    assert_eq!(output.status.code(), Some(0), "{}", text(&output.stderr));
+    let on_slurm = cluster.status("native-2-slurm");
+    for job in on_slurm["jobs"].as_array().unwrap() {
+        let dir = PathBuf::from(job["run_dir"].as_str().unwrap());
+        let attempts = std::fs::read_to_string(dir.join("orch-attempts.log")).unwrap();
+        // `start slurm:<id> <time> <host> <nodes>`: one node.
+        let nodes = attempts.lines().next().unwrap().rsplit(' ').next().unwrap();
+        assert!(nodes == "n1" || nodes == "n2", "{attempts}");
+        let log = std::fs::read_to_string(dir.join("log.native")).unwrap();
+        assert!(log.contains(" on 2 threads for "), "{log}");
+    }
+    for ((name, r1), (_, r2)) in one.iter().zip(responses(&on_slurm)) {
+        let physical = |r: &serde_json::Map<String, Value>| {
+            let mut r = r.clone();
+            r.retain(|k, _| !k.starts_with("solver_"));
+            r
+        };
+        assert_eq!(physical(r1), physical(&r2), "{name} on Slurm");
     }
 }

@@ -508,26 +508,38 @@ fn a_job_whose_node_fails_runs_again_and_orch_cancel_scancels_everything() {
                 .to_string()
         })
         .collect();
+    let mut arrays: Vec<&str> = ids.iter().map(|id| id.split('_').next().unwrap()).collect();
+    arrays.dedup();
     // A cancelled job shows COMPLETING until slurmd has killed its processes.
     let deadline = std::time::Instant::now() + Duration::from_secs(60);
     loop {
         let squeue = Command::new("squeue")
             .args([
                 "--noheader",
+                "--array", // a pending array's tasks one per line, not `758_[0-1]`
                 "--states=all",
                 "--format=%i %T",
                 "--jobs",
-                &ids.join(","),
+                &arrays.join(","),
             ])
             .env("SLURM_CONF", &conf)
             .output()
             .unwrap();
         let states = text(&squeue.stdout);
-        let cancelled = |id: &String| states.contains(&format!("{id} CANCELLED"));
+        // An array cancelled before any task left the queue is listed whole (`761`).
+        let cancelled = |id: &String| {
+            let array = id.split('_').next().unwrap_or(id);
+            states.contains(&format!("{id} CANCELLED"))
+                || states.lines().any(|l| l == format!("{array} CANCELLED"))
+        };
         if ids.iter().all(cancelled) {
             break;
         }
-        assert!(std::time::Instant::now() < deadline, "{states}");
+        assert!(
+            std::time::Instant::now() < deadline,
+            "{states} {ids:?} {}",
+            text(&squeue.stderr)
+        );
         std::thread::sleep(Duration::from_millis(500));
     }
 }

@@ -305,8 +305,11 @@ pub struct RunRows {
     /// The table's headers.
     pub headers: Vec<String>,
     names: Vec<String>,
-    /// The study's `fixed:` values, the same in every row.
-    fixed: Vec<Cell>,
+    /// The study's `fixed:` values at each fidelity level (one list without levels),
+    /// the same in every row of a level.
+    fixed: Vec<Vec<Cell>>,
+    /// Each fidelity level's name and solver; empty without levels.
+    levels: Vec<(String, String)>,
     /// The study's factors: a text factor's column holds its level's text.
     factors: Vec<crate::store::FactorRow>,
     page: JobPage,
@@ -398,9 +401,11 @@ impl RunRows {
         .map(|s| s.to_string())
         .collect();
         headers.extend(factors.iter().map(|f| header(&f.name, Some(&f.unit))));
-        // The values the study holds fixed, numbers and text, as constant columns: a
-        // row says everything its run was made with.
-        let mut fixed = Vec::new();
+        // The values the study holds fixed, numbers and text, as columns constant
+        // within a fidelity level (a level may set its own): a row says everything its
+        // run was made with, its level and solver too.
+        let mut fixed = vec![Vec::new()];
+        let mut levels = Vec::new();
         if let Some(study) = study {
             let unit = |name: &str| {
                 study
@@ -410,14 +415,33 @@ impl RunRows {
                     .find(|p| p.name == name)
                     .map(|p| p.unit.to_string())
             };
-            for (name, value) in &study.fixed {
+            levels = study
+                .fidelities
+                .iter()
+                .map(|f| (f.name.clone(), f.simulation.solver_name().to_string()))
+                .collect();
+            if !levels.is_empty() {
+                headers.extend(["fidelity".to_string(), "solver".to_string()]);
+            }
+            let names: BTreeSet<&String> = study
+                .fixed
+                .keys()
+                .chain(study.fidelities.iter().flat_map(|f| f.fixed.keys()))
+                .collect();
+            fixed = (0..study.fidelities.len().max(1))
+                .map(|level| {
+                    let case = study.case_at_level(&[], level as u32, 0);
+                    names
+                        .iter()
+                        .map(|name| Cell::Real(without_round_off(case.get(name))))
+                        .chain(study.fixed_text.values().map(|t| Cell::Text(t.clone())))
+                        .collect()
+                })
+                .collect();
+            for name in names {
                 headers.push(header(name, unit(name).as_deref()));
-                fixed.push(Cell::Real(without_round_off(*value)));
             }
-            for (name, text) in &study.fixed_text {
-                headers.push(name.clone());
-                fixed.push(Cell::Text(text.clone()));
-            }
+            headers.extend(study.fixed_text.keys().cloned());
         }
         headers.extend(
             names
@@ -428,6 +452,7 @@ impl RunRows {
             headers,
             names,
             fixed,
+            levels,
             factors,
             page,
         })
@@ -467,7 +492,11 @@ impl RunRows {
                 None => Cell::Real(without_round_off(*v)),
             }
         }));
-        cells.extend(self.fixed.iter().cloned());
+        let level = point.fidelity as usize;
+        if let Some((name, solver)) = self.levels.get(level) {
+            cells.extend([Cell::Text(name.clone()), Cell::Text(solver.clone())]);
+        }
+        cells.extend(self.fixed[level.min(self.fixed.len() - 1)].iter().cloned());
         cells.extend(
             self.names
                 .iter()

@@ -132,6 +132,25 @@ fn coarse_and_fine_runs_are_nested_fitted_by_co_kriging_and_shown() {
     let fitted = &status["rounds"][1]["fits"][0];
     assert!(fitted["error"].is_null(), "{fitted:#}");
 
+    // Export: each row's level, solver and the particle count its level ran with.
+    let csv = project.dir.path().join("grains.csv");
+    let output = project.run(&["export", "grains", "-o", csv.to_str().unwrap()]);
+    assert_eq!(output.status.code(), Some(0), "{}", text(&output.stderr));
+    let table = std::fs::read_to_string(&csv).unwrap();
+    let header: Vec<&str> = table.lines().next().unwrap().split(',').collect();
+    let column = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let (job, level, particles) = (column("job"), column("fidelity"), column("n_particles [-]"));
+    for line in table.lines().skip(1) {
+        let cells: Vec<&str> = line.split(',').collect();
+        let fine = cells[job].ends_with("-fine");
+        assert_eq!(cells[level], if fine { "fine" } else { "coarse" }, "{line}");
+        assert_eq!(
+            cells[particles],
+            if fine { "1000.0" } else { "300.0" },
+            "{line}"
+        );
+    }
+
     // The report, as a browser shows it: the levels with ρ and the correlation, and a
     // curve per level.
     let output = project.run(&["report", "grains"]);

@@ -136,7 +136,8 @@ impl Checker<'_> {
             let runs =
                 self.level_runs(i, level, levels.last().map_or(design_points, |l| l.runs))?;
             let simulation = self.level_simulation(file, i, level, custom, study_simulation)?;
-            let fixed = self.level_fixed(i, level, simulation.as_ref())?;
+            let factor_names: Vec<&str> = file.factors.iter().map(|f| f.name.as_str()).collect();
+            let fixed = self.level_fixed(i, level, simulation.as_ref(), &factor_names)?;
             levels.push(Fidelity {
                 name: level.name.clone(),
                 simulation,
@@ -209,10 +210,19 @@ impl Checker<'_> {
         i: usize,
         level: &FidelityFile,
         simulation: &dyn Simulation,
+        factors: &[&str],
     ) -> Result<BTreeMap<String, f64>, StudyError> {
         let mut fixed = BTreeMap::new();
         for (name, value) in &level.fixed {
             let at = format!("fidelity[{i}].fixed.{name}");
+            if factors.contains(&name.as_str()) {
+                return Err(self.error(
+                    &at,
+                    format!(
+                        "`{name}` is a factor, varied by the design at every level; remove it here"
+                    ),
+                ));
+            }
             let value = match value {
                 FixedValue::Number(v) if v.is_finite() => *v,
                 other => {

@@ -141,6 +141,11 @@ fn bad_levels_are_refused_naming_the_field_and_what_to_do() {
         ),
         (
             "{n_particles: 1000}",
+            "{friction: 0.5}",
+            "fidelity[1].fixed.friction: `friction` is a factor",
+        ),
+        (
+            "{n_particles: 1000}",
             "{grip: 1}",
             "fidelity[1].fixed.grip: `grip` is not a parameter of the hopper equipment on native",
         ),

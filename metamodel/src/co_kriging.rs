@@ -60,7 +60,8 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use crate::improvement::{expected_improvement, Feasibility, MIN_SEPARATION};
-use crate::kriging::{nelder_mead, Kernel, Kriging, KrigingError, KrigingOptions, Stop, Trend};
+use crate::kriging::{Kernel, Kriging, KrigingError, KrigingOptions, Trend};
+use crate::nelder_mead::{nelder_mead, Stop};
 use crate::optimise::{BoxBounds, Goal};
 
 /// Why a co-Kriging model cannot be built.

@@ -25,7 +25,8 @@
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use crate::kriging::{nelder_mead, Kriging, KrigingOptions, Stop};
+use crate::kriging::{Kriging, KrigingOptions};
+use crate::nelder_mead::{nelder_mead, Stop};
 use crate::optimise::{BoxBounds, Goal};
 
 /// `1/√π`.

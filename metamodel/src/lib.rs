@@ -16,6 +16,7 @@ pub mod kriging;
 mod kriging_search;
 pub mod lack_of_fit;
 pub mod levels;
+mod nelder_mead;
 pub mod optimise;
 pub mod pareto;
 pub mod per_level;

@@ -11,6 +11,7 @@
 //! of them ([`shown`]) and says so.
 //! The surfaces are refitted from the stored runs ([`crate::surfaces`]).
 
+mod fidelity;
 pub mod html;
 pub mod plots;
 pub mod shown;
@@ -458,7 +459,9 @@ fn surface_section(data: &Data<'_>, round: &StoredRound, fit: &StoredFit, runs: 
         data, round, fit, &unit, &surface, &observed,
     ));
     if let Surrogate::CoKriging { model, .. } = &surface {
-        out.push_str(&fidelity_section(data, round, fit, &unit, model, &observed));
+        out.push_str(&fidelity::section(
+            data, round, fit, &unit, model, &observed,
+        ));
     }
     let pairs: Option<Vec<(f64, f64)>> = surfaces::loo_predictions(&surface, &observed.y)
         .map(|p| observed.y.iter().copied().zip(p).collect());
@@ -491,115 +494,6 @@ fn surface_section(data: &Data<'_>, round: &StoredRound, fit: &StoredFit, runs: 
         None => out.push_str("<p class=\"note\">Pareto chart: a Kriging surface has no terms; the Sobol indices beside it rank the factors instead.</p>\n"),
     }
     out.push_str(&sobol_figure(data, fit));
-    out
-}
-
-/// The fidelity levels of a co-Kriging surface: per level its solver, cost, runs, the
-/// learned scale `ρ` and correlation with the level below and its noise; and each
-/// level's prediction along every factor through the optimum, with the runs of each
-/// level when there is one factor.
-fn fidelity_section(
-    data: &Data<'_>,
-    round: &StoredRound,
-    fit: &StoredFit,
-    unit: &str,
-    model: &orch_metamodel::CoKriging,
-    observed: &Observed,
-) -> String {
-    let level_name = |t: usize| -> String {
-        data.study
-            .and_then(|s| s.fidelities.get(t))
-            .map_or_else(|| format!("level {t}"), |f| f.name.clone())
-    };
-    let headers: Vec<String> = [
-        "level",
-        "name",
-        "solver",
-        "cost of a run",
-        "runs",
-        "ρ (scale on the level below)",
-        "correlation with the level below",
-        &format!("noise σ [{unit}]"),
-    ]
-    .iter()
-    .map(|s| s.to_string())
-    .collect();
-    let fmt = |v: Option<f64>| v.map_or_else(|| "–".to_string(), |v| format!("{v:.3}"));
-    let rows: Vec<Vec<String>> = (0..model.n_levels())
-        .map(|t| {
-            let fidelity = data.study.and_then(|s| s.fidelities.get(t));
-            vec![
-                t.to_string(),
-                escape(&level_name(t)),
-                escape(fidelity.map_or("–", |f| f.simulation.solver_name())),
-                fidelity.map_or_else(|| "–".into(), |f| format!("{}", f.cost)),
-                observed
-                    .fidelity
-                    .iter()
-                    .filter(|&&l| l as usize == t)
-                    .count()
-                    .to_string(),
-                fmt(model.scale_factor(t)),
-                fmt(model.correlation(t)),
-                format!("{:.3e}", model.level_model(t).noise_variance().sqrt()),
-            ]
-        })
-        .collect();
-    let mut out = format!(
-        "<h4>Fidelity levels</h4>\n<p>Co-Kriging: each level is the one below scaled by ρ plus its own Gaussian process; the surface above is the top level's.</p>\n{}",
-        table(&headers, &rows)
-    );
-    let ranges: &[FactorRange] = &round.ranges;
-    let f = &data.factors;
-    if ranges.len() != f.len() {
-        return out;
-    }
-    let through = optimum_point(data, round)
-        .unwrap_or_else(|| ranges.iter().map(|r| 0.5 * (r.min + r.max)).collect());
-    let coded = |natural: &[f64]| -> Vec<f64> {
-        natural
-            .iter()
-            .zip(ranges)
-            .map(|(v, r)| r.to_coded(*v))
-            .collect()
-    };
-    for (i, factor) in f.iter().enumerate() {
-        let curves: Vec<(String, Vec<(f64, f64)>)> = (0..model.n_levels())
-            .map(|t| {
-                let curve = (0..=60)
-                    .map(|s| {
-                        let x = ranges[i].min + (ranges[i].max - ranges[i].min) * s as f64 / 60.0;
-                        let mut point = through.clone();
-                        point[i] = x;
-                        (x, model.predict_level(t, &coded(&point)).0)
-                    })
-                    .collect();
-                (level_name(t), curve)
-            })
-            .collect();
-        let points: Vec<(f64, f64)> = if f.len() == 1 {
-            observed
-                .natural
-                .iter()
-                .zip(&observed.y)
-                .map(|(p, y)| (p[0], *y))
-                .collect()
-        } else {
-            Vec::new()
-        };
-        out.push_str(&figure(
-            &plots::lines(
-                &format!("Fidelity levels: {} along {}", fit.response, factor.name),
-                &svg_label(&factor.name, &factor.unit),
-                &svg_label(&fit.response, unit),
-                &curves,
-                &points,
-                Some(through[i]),
-                if f.len() == 1 { plots::WIDE } else { plots::HALF },
-            ),
-            "Each fidelity level's prediction along one factor, the others held at the optimum (or the box's centre); red line: that point.",
-        ));
-    }
     out
 }
 

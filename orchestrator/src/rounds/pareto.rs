@@ -293,6 +293,8 @@ pub(super) fn analyse_front(
         );
         let n_samples = samples.len();
         next_points.extend(samples);
+        // Over fidelity levels, nested subsets of them run at the higher levels.
+        let next_points = crate::study::nested_points(next_points, &study.fidelities);
         let next_tests = study.test_points(round + 1, &next_ranges);
         record.decision = Decision::NextRound;
         record.note = format!(

@@ -127,6 +127,31 @@ fn latin(samples: usize, seed: u64) -> Vec<Vec<f64>> {
     Design::build(&kind, 2).unwrap().points
 }
 
+/// Forrester, Sóbester & Keane (2007)'s design: 11 cheap runs and 4 expensive ones at
+/// x = 0, 0.4, 0.6, 1, fitted with the Gaussian correlation they used (under Matérn
+/// 5/2 four expensive runs make a short-scale δ likelier than ρ = 2 and a linear δ).
+fn forrester_pair() -> (CoKriging, KrigingOptions) {
+    let low_x = line(11);
+    let low_y: Vec<f64> = low_x.iter().map(|p| forrester_low(p[0])).collect();
+    let high_x: Vec<Vec<f64>> = [0, 4, 6, 10].iter().map(|&i| low_x[i].clone()).collect();
+    let high_y: Vec<f64> = high_x.iter().map(|p| forrester_high(p[0])).collect();
+    let options = KrigingOptions {
+        kernel: Kernel::SquaredExponential,
+        ..KrigingOptions::default()
+    };
+    let runs = [
+        LevelRuns {
+            x: &low_x,
+            y: &low_y,
+        },
+        LevelRuns {
+            x: &high_x,
+            y: &high_y,
+        },
+    ];
+    (CoKriging::fit(&runs, &options).unwrap(), options)
+}
+
 #[test]
 fn one_level_is_plain_kriging() {
     let x = line(7);
@@ -190,33 +215,9 @@ fn a_high_level_that_is_the_low_one_scaled_is_learned_exactly() {
 
 #[test]
 fn forrester_at_equal_cost_beats_high_fidelity_kriging_by_30_percent() {
-    // Forrester, Sóbester & Keane (2007): 11 cheap runs and 4 expensive ones at
-    // x = 0, 0.4, 0.6, 1. A cheap run costs a tenth, so the pair costs 5.1 expensive
-    // runs; high-fidelity Kriging gets 6 (more than the same cost).
-    let low_x = line(11);
-    let low_y: Vec<f64> = low_x.iter().map(|p| forrester_low(p[0])).collect();
-    let high_x: Vec<Vec<f64>> = [0, 4, 6, 10].iter().map(|&i| low_x[i].clone()).collect();
-    let high_y: Vec<f64> = high_x.iter().map(|p| forrester_high(p[0])).collect();
-    // Forrester et al. used the Gaussian correlation; under Matérn 5/2 four expensive
-    // runs make a short-scale δ likelier than ρ = 2 and a linear δ.
-    let options = KrigingOptions {
-        kernel: Kernel::SquaredExponential,
-        ..KrigingOptions::default()
-    };
-    let model = CoKriging::fit(
-        &[
-            LevelRuns {
-                x: &low_x,
-                y: &low_y,
-            },
-            LevelRuns {
-                x: &high_x,
-                y: &high_y,
-            },
-        ],
-        &options,
-    )
-    .unwrap();
+    // A cheap run costs a tenth, so Forrester's pair costs 5.1 expensive runs;
+    // high-fidelity Kriging gets 6 (more than the same cost).
+    let (model, options) = forrester_pair();
     let only_x = line(6);
     let only_y: Vec<f64> = only_x.iter().map(|p| forrester_high(p[0])).collect();
     let only = Kriging::fit(&only_x, &only_y, &options).unwrap();
@@ -343,28 +344,8 @@ fn a_cheap_faithful_level_is_proposed_and_an_unrelated_one_is_not() {
 
 #[test]
 fn a_batch_spreads_its_proposals_and_keeps_them_apart() {
+    let (model, _) = forrester_pair();
     let low_x = line(11);
-    let low_y: Vec<f64> = low_x.iter().map(|p| forrester_low(p[0])).collect();
-    let high_x: Vec<Vec<f64>> = [0, 4, 6, 10].iter().map(|&i| low_x[i].clone()).collect();
-    let high_y: Vec<f64> = high_x.iter().map(|p| forrester_high(p[0])).collect();
-    let options = KrigingOptions {
-        kernel: Kernel::SquaredExponential,
-        ..KrigingOptions::default()
-    };
-    let model = CoKriging::fit(
-        &[
-            LevelRuns {
-                x: &low_x,
-                y: &low_y,
-            },
-            LevelRuns {
-                x: &high_x,
-                y: &high_y,
-            },
-        ],
-        &options,
-    )
-    .unwrap();
     let everywhere = |_: &[f64]| 1.0;
     let batch = propose_fidelity_batch(
         &model,

@@ -587,34 +587,17 @@ impl Surrogate {
     pub fn prediction_interval(&self, x: &[f64], confidence: f64) -> Option<Interval> {
         match self {
             Surrogate::Polynomial(fit) => fit.prediction_interval(x, confidence),
-            Surrogate::Kriging { model, .. } => {
-                let estimate = model.predict(x);
-                let std_error =
-                    (model.predict_variance(x).max(0.0) + model.noise_variance()).sqrt();
-                // The normal quantile, as Student's t with a very large ν.
-                let z = student_t_quantile(0.5 + 0.5 * confidence, 1e9);
-                Some(Interval {
-                    estimate,
-                    std_error,
-                    low: estimate - z * std_error,
-                    high: estimate + z * std_error,
-                    degrees_of_freedom: f64::INFINITY,
-                })
-            }
+            Surrogate::Kriging { model, .. } => Some(normal_interval(
+                model.predict(x),
+                model.predict_variance(x) + model.noise_variance(),
+                confidence,
+            )),
             Surrogate::KrigingPerLevel(model) => Some(model.prediction_interval(x, confidence)),
-            Surrogate::CoKriging { model, .. } => {
-                let estimate = model.predict(x);
-                let noise = model.level_model(model.top()).noise_variance();
-                let std_error = (model.predict_variance(x).max(0.0) + noise).sqrt();
-                let z = student_t_quantile(0.5 + 0.5 * confidence, 1e9);
-                Some(Interval {
-                    estimate,
-                    std_error,
-                    low: estimate - z * std_error,
-                    high: estimate + z * std_error,
-                    degrees_of_freedom: f64::INFINITY,
-                })
-            }
+            Surrogate::CoKriging { model, .. } => Some(normal_interval(
+                model.predict(x),
+                model.predict_variance(x) + model.level_model(model.top()).noise_variance(),
+                confidence,
+            )),
         }
     }
 
@@ -812,6 +795,21 @@ fn kriging_spec(model: &Kriging) -> ModelSpec {
         length_scales: model.length_scales().to_vec(),
         process_variance: model.process_variance(),
         noise_variance: model.noise_variance(),
+    }
+}
+
+/// The `confidence` interval of a Gaussian prediction with mean `estimate` and
+/// variance `variance` (surrogate error and noise; negative round-off taken as 0).
+fn normal_interval(estimate: f64, variance: f64, confidence: f64) -> Interval {
+    let std_error = variance.max(0.0).sqrt();
+    // The normal quantile, as Student's t with a very large ν.
+    let z = student_t_quantile(0.5 + 0.5 * confidence, 1e9);
+    Interval {
+        estimate,
+        std_error,
+        low: estimate - z * std_error,
+        high: estimate + z * std_error,
+        degrees_of_freedom: f64::INFINITY,
     }
 }
 

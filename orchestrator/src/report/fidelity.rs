@@ -4,7 +4,7 @@
 use orch_metamodel::{CoKriging, FactorRange};
 
 use super::html::{escape, figure, svg_label, table};
-use super::{optimum_point, plots, Data};
+use super::{optimum_point, plots, runs_along_one_factor, Data};
 use crate::store::{StoredFit, StoredRound};
 use crate::surfaces::Observed;
 
@@ -91,16 +91,7 @@ pub(super) fn section(
                 (level_name(t), curve)
             })
             .collect();
-        let points: Vec<(f64, f64)> = if f.len() == 1 {
-            observed
-                .natural
-                .iter()
-                .zip(&observed.y)
-                .map(|(p, y)| (p[0], *y))
-                .collect()
-        } else {
-            Vec::new()
-        };
+        let points = runs_along_one_factor(observed, f.len());
         out.push_str(&figure(
             &plots::lines(
                 &format!("Fidelity levels: {} along {}", fit.response, factor.name),

@@ -645,16 +645,7 @@ fn surface_figures(
                         (name, curve)
                     })
                     .collect();
-                let points: Vec<(f64, f64)> = if f.len() == 1 {
-                    observed
-                        .natural
-                        .iter()
-                        .zip(&observed.y)
-                        .map(|(p, y)| (p[0], *y))
-                        .collect()
-                } else {
-                    Vec::new()
-                };
+                let points = runs_along_one_factor(observed, f.len());
                 let svg = plots::lines(
                     &format!("Response surface: {} along {}", fit.response, factor.name),
                     &svg_label(&factor.name, &factor.unit),
@@ -682,6 +673,20 @@ fn surface_figures(
             out
         }
     }
+}
+
+/// The observed runs as `(factor value, response)` when the study has one factor, so
+/// a slice can show them; none otherwise (a slice is not where they lie).
+fn runs_along_one_factor(observed: &Observed, factors: usize) -> Vec<(f64, f64)> {
+    if factors != 1 {
+        return Vec::new();
+    }
+    observed
+        .natural
+        .iter()
+        .zip(&observed.y)
+        .map(|(p, y)| (p[0], *y))
+        .collect()
 }
 
 fn optimum_section(data: &Data<'_>, round: &StoredRound) -> String {

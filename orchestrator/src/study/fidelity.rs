@@ -232,32 +232,7 @@ impl Checker<'_> {
                     ))
                 }
             };
-            let spec = simulation
-                .parameters()
-                .iter()
-                .find(|s| s.name == name.as_str());
-            match spec {
-                Some(spec) if !(spec.min..=spec.max).contains(&value) => {
-                    return Err(self.error(
-                        &at,
-                        format!(
-                            "`{name}` must lie within [{}, {}] {}, got {value}",
-                            spec.min, spec.max, spec.unit
-                        ),
-                    ))
-                }
-                None if !simulation.accepts_undeclared_parameters() => {
-                    return Err(self.error(
-                        &at,
-                        format!(
-                            "`{name}` is not a parameter of the {} equipment on {}",
-                            simulation.equipment_name(),
-                            simulation.solver_name()
-                        ),
-                    ))
-                }
-                _ => {}
-            }
+            self.fixed_parameter(&at, name, value, simulation)?;
             fixed.insert(name.clone(), value);
         }
         Ok(fixed)

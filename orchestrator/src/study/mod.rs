@@ -1291,28 +1291,7 @@ impl Checker<'_> {
                     ))
                 }
             };
-            match spec_of(name) {
-                Some(spec) if !(spec.min..=spec.max).contains(&value) => {
-                    return Err(self.error(
-                        &at,
-                        format!(
-                            "`{name}` must lie within [{}, {}] {}, got {value}",
-                            spec.min, spec.max, spec.unit
-                        ),
-                    ))
-                }
-                None if !custom_template => {
-                    return Err(self.error(
-                        &at,
-                        format!(
-                            "`{name}` is not a parameter of the {} equipment; expected one of: {}",
-                            equipment_name,
-                            known_names()
-                        ),
-                    ))
-                }
-                _ => {}
-            }
+            self.fixed_parameter(&at, name, value, simulation.as_ref())?;
             fixed.insert(name.clone(), value);
         }
         if file.replicates == 0 || file.replicates as usize > MAX_RUNS {
@@ -1715,6 +1694,40 @@ impl Checker<'_> {
         }
         self.check_coupled_case(&study)?;
         Ok(study)
+    }
+
+    /// A `fixed:` number (at field `at`) that `simulation` takes: within its range, or
+    /// any name when its template takes undeclared parameters.
+    fn fixed_parameter(
+        &self,
+        at: &str,
+        name: &str,
+        value: f64,
+        simulation: &dyn Simulation,
+    ) -> Result<(), StudyError> {
+        let specs = simulation.parameters();
+        match specs.iter().find(|s| s.name == name) {
+            Some(spec) if !(spec.min..=spec.max).contains(&value) => Err(self.error(
+                at,
+                format!(
+                    "`{name}` must lie within [{}, {}] {}, got {value}",
+                    spec.min, spec.max, spec.unit
+                ),
+            )),
+            None if !simulation.accepts_undeclared_parameters() => {
+                let names: Vec<&str> = specs.iter().map(|s| s.name.as_ref()).collect();
+                Err(self.error(
+                    at,
+                    format!(
+                        "`{name}` is not a parameter of the {} equipment on {}; expected one of: {}",
+                        simulation.equipment_name(),
+                        simulation.solver_name(),
+                        names.join(", ")
+                    ),
+                ))
+            }
+            _ => Ok(()),
+        }
     }
 
     /// With `coupling:`, the simulation must run the first design point in the CFD

@@ -159,6 +159,7 @@ fn coarse_and_fine_runs_are_nested_fitted_by_co_kriging_and_shown() {
     if let Some(dom) = rendered_dom(&page, project.dir.path()) {
         assert!(dom.contains("<h4>Fidelity levels</h4>"), "no levels table");
         assert!(dom.contains("correlation with the level below"));
+        assert!(dom.contains("measured loop time of a run [s]"));
         assert!(dom.contains("<td>fine</td>") && dom.contains("<td>coarse</td>"));
         assert!(dom.contains("Fidelity levels: discharge_rate along friction"));
         assert!(dom.contains("coarse (native, cost 1) &lt; fine (native, cost 3)"));

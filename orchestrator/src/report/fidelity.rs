@@ -6,7 +6,10 @@ use orch_metamodel::{CoKriging, FactorRange};
 use super::html::{escape, figure, svg_label, table};
 use super::{optimum_point, plots, runs_along_one_factor, Data};
 use crate::store::{StoredFit, StoredRound};
-use crate::surfaces::Observed;
+use crate::surfaces::{Observed, Run};
+
+/// The response in which every built-in solver reports its loop's wall time, s.
+pub(super) use orch_adapters::simulation::SOLVER_LOOP_TIME as LOOP_TIME;
 
 /// The fidelity levels of a co-Kriging surface: per level its solver, cost, runs, the
 /// learned scale `ρ` and correlation with the level below and its noise; and each
@@ -19,7 +22,17 @@ pub(super) fn section(
     unit: &str,
     model: &CoKriging,
     observed: &Observed,
+    runs: &[Run],
 ) -> String {
+    // What a run of each level took, to set against the cost the study declares.
+    let measured = |t: usize| -> Option<f64> {
+        let times: Vec<f64> = runs
+            .iter()
+            .filter(|r| r.fidelity as usize == t)
+            .filter_map(|r| r.response(LOOP_TIME))
+            .collect();
+        (!times.is_empty()).then(|| times.iter().sum::<f64>() / times.len() as f64)
+    };
     let level_name = |t: usize| -> String {
         data.study
             .and_then(|s| s.fidelities.get(t))
@@ -30,6 +43,7 @@ pub(super) fn section(
         "name",
         "solver",
         "cost of a run",
+        "measured loop time of a run [s]",
         "runs",
         "ρ (scale on the level below)",
         "correlation with the level below",
@@ -47,6 +61,7 @@ pub(super) fn section(
                 escape(&level_name(t)),
                 escape(fidelity.map_or("–", |f| f.simulation.solver_name())),
                 fidelity.map_or_else(|| "–".into(), |f| format!("{}", f.cost)),
+                fmt(measured(t)),
                 observed
                     .fidelity
                     .iter()

@@ -58,7 +58,7 @@ pub async fn render(
         names: factors.iter().map(|f| f.name.clone()).collect(),
         factors,
         // The figures and warnings judge each fit from its own response's runs.
-        runs: surfaces::design_runs_named(store, row.id, &surfaces::fitted_names(&rounds)).await?,
+        runs: surfaces::design_runs_named(store, row.id, &names_read(study, &rounds)).await?,
         rounds,
     };
     let mut body = String::new();
@@ -107,6 +107,17 @@ pub async fn render(
     }
     body.push_str(&runs_section(store, &data).await?);
     Ok(html::page(&format!("{}: report", row.name), &body))
+}
+
+/// The responses the report reads for each run: those fitted, and over fidelity
+/// levels the solver's loop time, each level's measured cost.
+fn names_read(study: Option<&Study>, rounds: &[StoredRound]) -> Vec<String> {
+    let mut names = surfaces::fitted_names(rounds);
+    let leveled = study.is_some_and(|s| !s.fidelities.is_empty());
+    if leveled && !names.iter().any(|n| n == fidelity::LOOP_TIME) {
+        names.push(fidelity::LOOP_TIME.to_string());
+    }
+    names
 }
 
 const DEFINITIONS: &str = "<h2>Definitions</h2>\n<dl>\
@@ -460,7 +471,7 @@ fn surface_section(data: &Data<'_>, round: &StoredRound, fit: &StoredFit, runs: 
     ));
     if let Surrogate::CoKriging { model, .. } = &surface {
         out.push_str(&fidelity::section(
-            data, round, fit, &unit, model, &observed,
+            data, round, fit, &unit, model, &observed, runs,
         ));
     }
     let pairs: Option<Vec<(f64, f64)>> = surfaces::loo_predictions(&surface, &observed.y)

@@ -322,11 +322,6 @@ impl CoKriging {
         &self.levels[level].model
     }
 
-    /// Runs at each level, cheapest first.
-    pub fn runs_per_level(&self) -> Vec<usize> {
-        self.levels.iter().map(|l| l.model.n_runs()).collect()
-    }
-
     /// Leave-one-out residuals of the top level's runs (lower levels held as fitted).
     pub fn loo_residuals(&self) -> Vec<f64> {
         self.levels[self.top()].model.loo_residuals()

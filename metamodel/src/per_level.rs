@@ -14,7 +14,7 @@
 use crate::fit::{Interval, Quality};
 use crate::kriging::{Kriging, KrigingOptions};
 use crate::levels::{combination_of, combinations, numeric_factors, numeric_part};
-use crate::student::student_t_quantile;
+use crate::surrogate::normal_interval;
 
 /// Independent Kriging models, one per combination of the text factors' levels.
 #[derive(Debug, Clone)]
@@ -184,16 +184,11 @@ impl KrigingPerLevel {
     /// The interval holding a new run at `x` with probability `confidence`.
     pub fn prediction_interval(&self, x: &[f64], confidence: f64) -> Interval {
         let (model, numeric) = self.model_at(x);
-        let estimate = model.predict(&numeric);
-        let std_error = (model.predict_variance(&numeric).max(0.0) + model.noise_variance()).sqrt();
-        let z = student_t_quantile(0.5 + 0.5 * confidence, 1e9);
-        Interval {
-            estimate,
-            std_error,
-            low: estimate - z * std_error,
-            high: estimate + z * std_error,
-            degrees_of_freedom: f64::INFINITY,
-        }
+        normal_interval(
+            model.predict(&numeric),
+            model.predict_variance(&numeric).max(0.0) + model.noise_variance(),
+            confidence,
+        )
     }
 
     /// Quality over every run.

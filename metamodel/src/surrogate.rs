@@ -800,7 +800,7 @@ fn kriging_spec(model: &Kriging) -> ModelSpec {
 
 /// The `confidence` interval of a Gaussian prediction with mean `estimate` and
 /// variance `variance` (surrogate error and noise; negative round-off taken as 0).
-fn normal_interval(estimate: f64, variance: f64, confidence: f64) -> Interval {
+pub(crate) fn normal_interval(estimate: f64, variance: f64, confidence: f64) -> Interval {
     let std_error = variance.max(0.0).sqrt();
     // The normal quantile, as Student's t with a very large ν.
     let z = student_t_quantile(0.5 + 0.5 * confidence, 1e9);

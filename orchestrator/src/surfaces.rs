@@ -65,19 +65,6 @@ impl Observed {
             .map(|(p, &level)| p.iter().copied().chain([f64::from(level)]).collect())
             .collect()
     }
-
-    /// The runs at fidelity level `level`: job names, coded points and values.
-    pub fn at_level(&self, level: u32) -> Observed {
-        let mut out = Observed::default();
-        for i in (0..self.y.len()).filter(|&i| self.fidelity[i] == level) {
-            out.jobs.push(self.jobs[i].clone());
-            out.coded.push(self.coded[i].clone());
-            out.natural.push(self.natural[i].clone());
-            out.fidelity.push(level);
-            out.y.push(self.y[i]);
-        }
-        out
-    }
 }
 
 /// Succeeded design runs each round's fits use, by round: the round's own and every

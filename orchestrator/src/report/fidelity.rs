@@ -4,7 +4,7 @@
 use orch_metamodel::{CoKriging, FactorRange};
 
 use super::html::{escape, figure, svg_label, table};
-use super::{optimum_point, plots, runs_along_one_factor, Data};
+use super::{optimum_point, plots, runs_along_one_factor, slice, Data};
 use crate::store::{StoredFit, StoredRound};
 use crate::surfaces::{Observed, Run};
 
@@ -85,24 +85,10 @@ pub(super) fn section(
     }
     let through = optimum_point(data, round)
         .unwrap_or_else(|| ranges.iter().map(|r| 0.5 * (r.min + r.max)).collect());
-    let coded = |natural: &[f64]| -> Vec<f64> {
-        natural
-            .iter()
-            .zip(ranges)
-            .map(|(v, r)| r.to_coded(*v))
-            .collect()
-    };
     for (i, factor) in f.iter().enumerate() {
         let curves: Vec<(String, Vec<(f64, f64)>)> = (0..model.n_levels())
             .map(|t| {
-                let curve = (0..=60)
-                    .map(|s| {
-                        let x = ranges[i].min + (ranges[i].max - ranges[i].min) * s as f64 / 60.0;
-                        let mut point = through.clone();
-                        point[i] = x;
-                        (x, model.predict_level(t, &coded(&point)).0)
-                    })
-                    .collect();
+                let curve = slice(ranges, &through, i, |c| model.predict_level(t, c).0);
                 (level_name(t), curve)
             })
             .collect();

@@ -636,15 +636,7 @@ fn surface_figures(
                         for (&j, &level) in text_factors.iter().zip(combination) {
                             at[j] = level as f64;
                         }
-                        let curve = (0..=60)
-                            .map(|s| {
-                                let x = ranges[i].min
-                                    + (ranges[i].max - ranges[i].min) * s as f64 / 60.0;
-                                let mut point = at.clone();
-                                point[i] = x;
-                                (x, surface.predict(&coded(&point)))
-                            })
-                            .collect();
+                        let curve = slice(ranges, &at, i, |c| surface.predict(c));
                         let name = match has_text {
                             false => fit.response.clone(),
                             true => text_factors
@@ -684,6 +676,28 @@ fn surface_figures(
             out
         }
     }
+}
+
+/// A slice of a surface along factor `i` of the box `ranges` through the natural point
+/// `through`: 61 evenly spaced `(value, surface(coded point))` pairs.
+fn slice(
+    ranges: &[FactorRange],
+    through: &[f64],
+    i: usize,
+    surface: impl Fn(&[f64]) -> f64,
+) -> Vec<(f64, f64)> {
+    (0..=60)
+        .map(|s| {
+            let x = ranges[i].min + (ranges[i].max - ranges[i].min) * s as f64 / 60.0;
+            let coded: Vec<f64> = through
+                .iter()
+                .zip(ranges)
+                .enumerate()
+                .map(|(j, (v, r))| r.to_coded(if j == i { x } else { *v }))
+                .collect();
+            (x, surface(&coded))
+        })
+        .collect()
 }
 
 /// The observed runs as `(factor value, response)` when the study has one factor, so

@@ -31,9 +31,10 @@
 
 use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use orch_adapters::{CommandSpec, RunResults, Upstream};
+use orch_adapters::{CommandSpec, RunResults, Simulation, Upstream};
 use tokio::signal::unix::{signal, SignalKind};
 
 use crate::convergence::{self, ConvergenceWatch};
@@ -340,9 +341,22 @@ impl<E: Executor> Driver<'_, E> {
     /// The case of `job`'s design point with its seed; its point read from the store
     /// when the driver does not hold it.
     async fn case(&self, job: &JobRow) -> Result<orch_adapters::Case, StoreError> {
+        Ok(self.case_and_simulation(job).await?.0)
+    }
+
+    /// The case of `job`'s design point with its seed, and what runs it: the point's
+    /// fidelity level's simulation (the study's without levels), both from the same
+    /// point, read from the store when the driver does not hold it.
+    async fn case_and_simulation(
+        &self,
+        job: &JobRow,
+    ) -> Result<(orch_adapters::Case, Arc<dyn Simulation>), StoreError> {
         let at = |point: &PointRow| {
-            self.study
-                .case_at_level(&point.natural, point.fidelity, job.seed as u64)
+            (
+                self.study
+                    .case_at_level(&point.natural, point.fidelity, job.seed as u64),
+                self.study.simulation_at(point.fidelity).clone(),
+            )
         };
         if let Some(point) = self.points.get(&job.point_id) {
             return Ok(at(point));
@@ -355,9 +369,10 @@ impl<E: Executor> Driver<'_, E> {
         Ok(at(point))
     }
 
-    /// What runs `job`'s design point: its fidelity level's simulation (the study's
-    /// without levels). The driver holds the points of the jobs it renders and reads.
-    fn simulation_of(&self, job: &JobRow) -> &std::sync::Arc<dyn orch_adapters::Simulation> {
+    /// What runs `job`'s design point, for the synchronous callers (its log file, the
+    /// responses it owes), which come after the driver read the job and so holds its
+    /// point; level 0's should it not.
+    fn simulation_of(&self, job: &JobRow) -> &Arc<dyn Simulation> {
         let level = self.points.get(&job.point_id).map_or(0, |p| p.fidelity);
         self.study.simulation_at(level)
     }
@@ -416,8 +431,10 @@ impl<E: Executor> Driver<'_, E> {
     /// Renders a job into its run directory and returns its command, or why not.
     async fn render(&self, job: &JobRow, run_dir: &Path) -> Result<CommandSpec, String> {
         let Some(kind) = job.stage_kind() else {
-            let case = self.case(job).await.map_err(|e| e.to_string())?;
-            let simulation = self.simulation_of(job);
+            let (case, simulation) = self
+                .case_and_simulation(job)
+                .await
+                .map_err(|e| e.to_string())?;
             simulation
                 .render(&case, run_dir)
                 .map_err(|e| format!("cannot render the case: {e}"))?;
@@ -748,14 +765,14 @@ impl<E: Executor> Driver<'_, E> {
             if !self.convergence.due(job.id, stop, now) || run_dir.join(STOP_FILE).exists() {
                 continue;
             }
-            let case = match self.case(job).await {
-                Ok(case) => case,
+            let (case, simulation) = match self.case_and_simulation(job).await {
+                Ok(found) => found,
                 Err(e) => {
                     tracing::warn!(job = %job.name, "cannot check stop_when: {e}");
                     continue;
                 }
             };
-            let (simulation, dir) = (self.simulation_of(job).clone(), run_dir.clone());
+            let dir = run_dir.clone();
             let so_far =
                 tokio::task::spawn_blocking(move || simulation.results_so_far(&case, &dir))
                     .await
@@ -938,8 +955,7 @@ impl<E: Executor> Driver<'_, E> {
     /// Ctrl-C or SIGTERM does not wait for a long read: [`Read::Interrupted`], and the
     /// job is left for `orch resume`.
     async fn read_run(&mut self, job: &JobRow) -> Result<Read, DriverError> {
-        let mut case = self.case(job).await?;
-        let simulation = self.simulation_of(job).clone();
+        let (mut case, simulation) = self.case_and_simulation(job).await?;
         let stage = match job.stage_kind() {
             Some(AIR_STAGE) => match self.air_before(job).await {
                 Ok((air, _)) => {

@@ -111,7 +111,15 @@ pub fn plan_points<'a>(
     let coupled = study.coupling.as_ref().filter(|_| !stages.is_empty());
     let mut occurrences: std::collections::HashMap<String, u32> = Default::default();
     let mut planned = Vec::with_capacity(points.len());
-    let mut twins_taken: std::collections::HashSet<(u32, usize)> = Default::default();
+    // The first level's points by their coded coordinates (bit for bit), each list in
+    // index order: where a higher level's point finds its twin without a scan.
+    let mut first_level: std::collections::HashMap<Vec<u64>, Vec<usize>> = Default::default();
+    for (i, p) in points.iter().enumerate().filter(|(_, p)| p.fidelity == 0) {
+        let bits = p.coded.iter().map(|c| c.to_bits()).collect();
+        first_level.entry(bits).or_default().push(i);
+    }
+    // How many twins of each first-level coordinates each level has named.
+    let mut twins_taken: std::collections::HashMap<(u32, Vec<u64>), usize> = Default::default();
     for (number, point) in points.iter().enumerate() {
         let case = case_key(study, point);
         let occurrence = occurrences.entry(case.clone()).or_default();
@@ -128,11 +136,15 @@ pub fn plan_points<'a>(
         let (twin_of, level) = match study.fidelities.get(point.fidelity as usize) {
             Some(fidelity) if point.fidelity > 0 => {
                 // A repeated point's twins take its repeats in turn.
-                let twin = (0..points.len()).find(|&i| {
-                    points[i].fidelity == 0
-                        && points[i].coded == point.coded
-                        && twins_taken.insert((point.fidelity, i))
-                });
+                let bits: Vec<u64> = point.coded.iter().map(|c| c.to_bits()).collect();
+                let taken = twins_taken
+                    .entry((point.fidelity, bits.clone()))
+                    .or_default();
+                let twin = first_level
+                    .get(&bits)
+                    .and_then(|list| list.get(*taken))
+                    .copied();
+                *taken += 1;
                 (twin, format!("-{}", fidelity.name))
             }
             _ => (None, String::new()),

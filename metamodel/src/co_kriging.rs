@@ -252,8 +252,16 @@ impl CoKriging {
     /// Posterior mean and variance (response units, units²) of level `level` at coded
     /// point `x`.
     pub fn predict_level(&self, level: usize, x: &[f64]) -> (f64, f64) {
+        self.predict_up_to(level, x)[level]
+    }
+
+    /// Posterior mean and variance of every level from 0 to `level` at `x`, in one
+    /// pass up the levels.
+    fn predict_up_to(&self, level: usize, x: &[f64]) -> Vec<(f64, f64)> {
         let first = &self.levels[0].model;
         let (mut mean, mut variance) = (first.predict(x), first.predict_variance(x));
+        let mut each = Vec::with_capacity(level + 1);
+        each.push((mean, variance.max(0.0)));
         for t in 1..=level {
             let rho = self
                 .scale_factor(t)
@@ -267,8 +275,9 @@ impl CoKriging {
             let delta_variance = model.predict_variance_given(x, Some(c));
             mean = model.predict_given(x, Some(c));
             variance = rho * rho * variance + delta_variance;
+            each.push((mean, variance.max(0.0)));
         }
-        (mean, variance.max(0.0))
+        each
     }
 
     /// Posterior mean of the top level at `x`, in response units.
@@ -424,12 +433,14 @@ pub fn augmented_expected_improvement(
     goal: Goal,
 ) -> f64 {
     let top = model.top();
-    let (mean, variance) = model.predict_level(top, x);
+    // Every level's prediction from one pass: the top's and the proposed level's.
+    let each = model.predict_up_to(top, x);
+    let (mean, variance) = each[top];
     let improvement = expected_improvement(mean, variance.sqrt(), best, goal);
     if improvement <= 0.0 {
         return 0.0;
     }
-    let (_, level_variance) = model.predict_level(level, x);
+    let (_, level_variance) = each[level];
     let correlation = if level == top {
         1.0
     } else if variance > 0.0 {

@@ -18,6 +18,7 @@
 
 pub mod chute;
 pub mod custom;
+pub mod dem_in_air;
 pub mod dump;
 pub mod equipment;
 mod error;

@@ -1,25 +1,36 @@
-//! Stages: a job that runs after another and takes its upstream job's case and
-//! responses as inputs (OpenFOAM after DEM; later a user's post-processing script, or
-//! a second DEM pass with an air field).
+//! Stages: a job that runs after another and takes its upstream job's case, responses
+//! and files as inputs: OpenFOAM after DEM ([`crate::openfoam`]), or the design
+//! point's DEM again in the air OpenFOAM computed ([`crate::dem_in_air`]).
 //!
 //! The orchestrator knows stages only through [`Stage`]: it creates one job per stage
-//! after each design job, launches it once its upstream job succeeded, renders it from
-//! [`Upstream`], and stores what [`Stage::results`] returns. To add a stage kind:
-//! implement [`Stage`] in its own module and list it in [`STAGES`]; a study turns it on
-//! with a section named after [`Stage::kind`] under `stages:`.
+//! after each design job (and, with `coupling:`, a chain of them), launches it once its
+//! upstream job succeeded, renders it from [`Upstream`], and stores what
+//! [`Stage::results`] returns. To add a stage kind: implement [`Stage`] in its own
+//! module and list it in [`STAGES`]; a study turns it on with a section named after
+//! [`Stage::kind`] under `stages:`.
 
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use crate::{Case, CommandSpec, ParameterSpec, ParseError, RenderError, ResponseSpec, RunResults};
+use crate::{
+    Case, CommandSpec, ParameterSpec, ParseError, RenderError, ResponseSpec, RunResults, Simulation,
+};
 
 /// What a stage reads of the job it follows.
 #[derive(Debug, Clone, Copy)]
 pub struct Upstream<'a> {
-    /// The upstream job's resolved case.
+    /// The design point's resolved case, with the upstream job's seed.
     pub case: &'a Case,
     /// The upstream job's stored responses by name.
     pub responses: &'a BTreeMap<String, f64>,
+    /// The upstream job's run directory (its files, as `keep:` left them: a stage
+    /// that reads files of the job before it needs at least `results`).
+    pub run_dir: &'a Path,
+    /// The upstream job's own parameters when it is a stage's job, `None` for a design
+    /// job.
+    pub stage_case: Option<&'a Case>,
+    /// What runs the design point (a stage that runs it again uses it).
+    pub simulation: &'a dyn Simulation,
 }
 
 /// Why a stage cannot be rendered.
@@ -31,6 +42,17 @@ pub enum StageError {
     /// Rendering failed.
     #[error("cannot render the stage: {0}")]
     Render(#[from] RenderError),
+    /// The stage must follow a job of another stage and does not.
+    #[error("an `{kind}` job runs after a `{follows}` job, and this one follows none")]
+    NotAfterStage {
+        /// This stage's kind.
+        kind: &'static str,
+        /// The kind it must follow.
+        follows: &'static str,
+    },
+    /// What the upstream job left in its run directory cannot be used.
+    #[error("its upstream job's files: {0}")]
+    UpstreamFiles(String),
 }
 
 /// A job kind that follows another job.
@@ -60,11 +82,12 @@ pub trait Stage: Send + Sync {
     /// How a user installs them.
     fn install_hint(&self) -> &'static str;
 
-    /// The stage's log in its run directory.
-    fn log_file(&self) -> &'static str;
+    /// The stage's log in its run directory; `None`: the design's simulation's log
+    /// (a stage that runs the design point again).
+    fn log_file(&self) -> Option<&'static str>;
 
-    /// Writes the stage's input for `case` fed by `upstream` into `run_dir`, and
-    /// returns the command that runs it.
+    /// Writes the stage's input for `case` (its parameters, with the job's seed) fed
+    /// by `upstream` into `run_dir`, and returns the command that runs it.
     fn render(
         &self,
         case: &Case,
@@ -72,12 +95,32 @@ pub trait Stage: Send + Sync {
         run_dir: &Path,
     ) -> Result<CommandSpec, StageError>;
 
-    /// Reads a finished run's responses and series.
-    fn results(&self, run_dir: &Path) -> Result<RunResults, ParseError>;
+    /// Reads a finished run's responses and series; `case` and `upstream` are those it
+    /// was rendered with.
+    fn results(
+        &self,
+        case: &Case,
+        upstream: &Upstream<'_>,
+        run_dir: &Path,
+    ) -> Result<RunResults, ParseError>;
+
+    /// True when the stage runs the design point's simulation again, in conditions a
+    /// stage before it computed: its jobs take the design job's cores and random
+    /// stream (the same particles, so that a change is the conditions'), it is chained
+    /// by `coupling:` rather than listed under `stages:`, and a later run of it in a
+    /// chain replaces the design run (or the one before) in fits.
+    fn reruns_design(&self) -> bool {
+        false
+    }
+
+    /// The stage kind whose job this one must follow (`None`: the design job).
+    fn follows(&self) -> Option<&'static str> {
+        None
+    }
 }
 
 /// Every stage kind `orch` knows.
-pub static STAGES: &[&dyn Stage] = &[&crate::openfoam::StreamAir];
+pub static STAGES: &[&dyn Stage] = &[&crate::openfoam::StreamAir, &crate::dem_in_air::DemInAir];
 
 /// The stage of kind `kind`, or `None`.
 pub fn stage_for(kind: &str) -> Option<&'static dyn Stage> {

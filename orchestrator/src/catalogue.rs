@@ -38,7 +38,9 @@ pub fn overview() -> String {
             solver.install_hint
         );
     }
-    out.push_str("\nStages (`stages: {KIND: {fixed: …}}`, run after each design job):\n");
+    out.push_str(
+        "\nStages (`stages: {KIND: {fixed: …}}`, run after each design job; or chained by `coupling:`):\n",
+    );
     for stage in STAGES {
         let _ = writeln!(out, "  {:<10} {}", stage.kind(), stage.description());
     }
@@ -192,6 +194,9 @@ pub fn markdown() -> String {
 }
 
 fn code_list(names: &[&str]) -> String {
+    if names.is_empty() {
+        return "(none)".to_string();
+    }
     names
         .iter()
         .map(|n| format!("`{n}`"))
@@ -200,6 +205,10 @@ fn code_list(names: &[&str]) -> String {
 }
 
 fn parameters_markdown(out: &mut String, parameters: &[ParameterSpec]) {
+    if parameters.is_empty() {
+        out.push_str("No parameters of its own.\n");
+        return;
+    }
     out.push_str("| parameter | default | unit | range | description |\n|---|---|---|---|---|\n");
     for p in parameters {
         let _ = writeln!(

@@ -1191,9 +1191,10 @@ async fn logs(project_dir: Option<&Path>, reference: &str, tail: usize) -> anyho
     // own deck declares (`log:`), read from the stored study.
     let log_file: Option<String> = match job
         .stage_kind()
-        .filter(|&kind| kind != crate::coupling::AIR_STAGE)
+        .and_then(orch_adapters::stage_for)
+        .and_then(|stage| stage.log_file())
     {
-        Some(kind) => orch_adapters::stage_for(kind).map(|stage| stage.log_file().to_string()),
+        Some(log) => Some(log.to_string()),
         None => match orch_adapters::solver_for(&study.solver) {
             Some(solver) => Some(solver.log_file.to_string()),
             None => stored_study(&store, &study)

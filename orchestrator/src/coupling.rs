@@ -1,10 +1,11 @@
-//! `coupling:`: the staggered DEM ↔ air iteration of a design point.
+//! `coupling:`: the staggered DEM ↔ air iteration of a design point, and which runs of
+//! its chain count.
 //!
 //! A design job runs the DEM (in still air, or in vacuum); its `cfd` stage computes
-//! the air that stream drags along. With `coupling:` the chain goes on: a job of kind
-//! [`AIR_STAGE`] runs the design point's DEM again with the CFD stage's air velocity on
-//! a grid ([`AIR_FIELD_FILE`], the native kernel's `[air] velocity_field`), a second
-//! `cfd` job computes the air of that stream, and so on:
+//! the air that stream drags along. With `coupling:` the chain goes on
+//! ([`crate::plan`] names it): a job of the stage `air`
+//! ([`orch_adapters::dem_in_air`]) runs the design point's DEM again in the air of the
+//! `cfd` job before it, a second `cfd` job computes the air of that stream, and so on:
 //!
 //! ```text
 //! p000r0 → p000r0-cfd → p000r0-air1 → p000r0-cfd2 → p000r0-air2 → …
@@ -12,91 +13,19 @@
 //!
 //! Each job follows the one before it (`after_job_id`). When a DEM run in air has
 //! changed the study's response by less than the tolerance against the DEM run before
-//! it, the next `cfd` job is cancelled with why, and the rest of the chain follows it.
-//! Fits and reports use the last DEM run and the last CFD run of each chain
-//! ([`superseded`]).
+//! it ([`crate::decide::coupling_settled`]), the next `cfd` job is cancelled with why,
+//! and the rest of the chain follows it. Fits and reports use the last DEM run and the
+//! last CFD run of each chain ([`superseded`]).
 
 use std::collections::{HashMap, HashSet};
 
-use orch_adapters::Case;
-
 use crate::store::{JobLink, JobState, DESIGN_STAGE};
 
-/// The stage kind of a DEM job run in the air of the CFD job before it.
-pub const AIR_STAGE: &str = "air";
-
-/// The air velocities a coupled DEM job reads, in its run directory.
-pub const AIR_FIELD_FILE: &str = "air-field.csv";
-
-/// Parameters an equipment needs to run in moving air.
-pub const AIR_PARAMETERS: &[&str] = &["air_density", "air_viscosity", "air_field"];
-
-/// The air of the CFD stage, as the DEM takes it.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct AirProperties {
-    /// Density, kg/m³.
-    pub density_kg_m3: f64,
-    /// Dynamic viscosity, Pa·s (the CFD stage's kinematic viscosity times density).
-    pub dynamic_viscosity_pa_s: f64,
-}
-
-impl Default for AirProperties {
-    /// Air at 20 °C.
-    fn default() -> Self {
-        AirProperties {
-            density_kg_m3: 1.2,
-            dynamic_viscosity_pa_s: 1.8e-5,
-        }
-    }
-}
-
-impl AirProperties {
-    /// The air of a `cfd` stage case (`air_density` kg/m³, `air_viscosity` m²/s).
-    pub fn of_cfd(cfd: &Case) -> AirProperties {
-        let density = cfd.get("air_density");
-        AirProperties {
-            density_kg_m3: density,
-            dynamic_viscosity_pa_s: cfd.get("air_viscosity") * density,
-        }
-    }
-}
-
-/// `case` run in the air of [`AIR_FIELD_FILE`]: the CFD stage's density and
-/// viscosity, `air_field` on.
-pub fn in_moving_air(case: &Case, air: &AirProperties) -> Case {
-    let mut moving = case.clone();
-    moving.parameters.set("air_density", air.density_kg_m3);
-    moving
-        .parameters
-        .set("air_viscosity", air.dynamic_viscosity_pa_s);
-    moving.parameters.set("air_field", 1.0);
-    moving
-}
-
-/// Names and kinds of the jobs chained after design job `design` and its first `cfd`
-/// job (`<design>-cfd`), for `iterations` DEM runs in air, in order.
-pub fn chain(design: &str, iterations: u32) -> Vec<(String, &'static str)> {
-    let cfd = orch_adapters::openfoam::KIND;
-    let mut jobs = Vec::new();
-    for k in 1..=iterations {
-        jobs.push((format!("{design}-{AIR_STAGE}{k}"), AIR_STAGE));
-        if k < iterations {
-            jobs.push((format!("{design}-{cfd}{}", k + 1), cfd));
-        }
-    }
-    jobs
-}
-
-/// The relative change of a response from `before` to `now` when it is below
-/// `tolerance` (the iteration has settled), else `None`.
-pub fn settled(before: f64, now: f64, tolerance: f64) -> Option<f64> {
-    let change = ((now - before) / before).abs();
-    (before != 0.0 && change.is_finite() && change < tolerance).then_some(change)
-}
-
-/// True for the jobs that run the DEM: design jobs and [`AIR_STAGE`] jobs.
+/// True for the jobs that run the DEM: design jobs and jobs of a stage that runs the
+/// design again.
 fn runs_dem(job: &impl JobLink) -> bool {
-    job.stage() == DESIGN_STAGE || job.stage() == AIR_STAGE
+    job.stage() == DESIGN_STAGE
+        || orch_adapters::stage_for(job.stage()).is_some_and(|stage| stage.reruns_design())
 }
 
 /// Succeeded jobs that a later job of the same chain replaces: a DEM run followed (two
@@ -148,40 +77,6 @@ mod tests {
         }
     }
 
-    fn case(specs: &[orch_adapters::ParameterSpec], values: &[(&str, f64)]) -> Case {
-        let mut parameters = orch_adapters::ResolvedParameters::defaults(specs);
-        for (name, value) in values {
-            parameters.set(name, *value);
-        }
-        Case {
-            parameters,
-            seed: 1,
-            text: Default::default(),
-        }
-    }
-
-    #[test]
-    fn the_chain_alternates_dem_in_air_and_cfd() {
-        assert_eq!(
-            chain("p000r0", 3),
-            vec![
-                ("p000r0-air1".to_string(), "air"),
-                ("p000r0-cfd2".to_string(), "cfd"),
-                ("p000r0-air2".to_string(), "air"),
-                ("p000r0-cfd3".to_string(), "cfd"),
-                ("p000r0-air3".to_string(), "air"),
-            ]
-        );
-        assert_eq!(chain("p1", 1), vec![("p1-air1".to_string(), "air")]);
-    }
-
-    #[test]
-    fn a_change_below_the_tolerance_settles() {
-        assert!((settled(0.200, 0.201, 0.01).unwrap() - 0.005).abs() < 1e-12);
-        assert_eq!(settled(0.200, 0.210, 0.01), None);
-        assert_eq!(settled(0.0, 0.0, 0.01), None);
-    }
-
     #[test]
     fn only_the_last_dem_and_cfd_runs_of_a_chain_count() {
         use JobState::*;
@@ -210,21 +105,5 @@ mod tests {
             })
             .collect();
         assert_eq!(superseded(&lean), HashSet::from([1, 2]));
-    }
-
-    #[test]
-    fn the_dem_in_air_takes_the_cfd_stage_s_air() {
-        let cfd = case(
-            orch_adapters::openfoam::PARAMETERS,
-            &[("air_density", 1.2), ("air_viscosity", 1.5e-5)],
-        );
-        let air = AirProperties::of_cfd(&cfd);
-        assert_eq!(air.density_kg_m3, 1.2);
-        assert!((air.dynamic_viscosity_pa_s - 1.8e-5).abs() < 1e-20);
-        let still = case(orch_adapters::hopper::PARAMETERS, &[]);
-        assert_eq!(still.get("air_field"), 0.0);
-        let moving = in_moving_air(&still, &air);
-        assert_eq!(moving.get("air_field"), 1.0);
-        assert_eq!(moving.get("air_density"), 1.2);
     }
 }

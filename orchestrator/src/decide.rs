@@ -11,7 +11,8 @@
 //! A tick of the driver uses them in this order: [`on_reports`] for the jobs it polled,
 //! then (on the jobs read again) [`settle_and_launch`], then [`is_finished`]. Ctrl-C
 //! uses [`on_interrupt`], `orch cancel` from elsewhere [`on_cancel`]; a successful run
-//! whose output cannot be read goes through [`retry_or_fail`].
+//! whose output cannot be read goes through [`retry_or_fail`]; a DEM run of a coupled
+//! chain through [`coupling_settled`] and [`on_chain_settled`].
 
 use std::collections::{HashMap, HashSet};
 use std::time::Duration;
@@ -73,6 +74,9 @@ pub enum CancelCause {
     Upstream(String),
     /// `orch cancel` cancelled the study.
     Study,
+    /// The coupled chain it belongs to has settled before it: the note says where and
+    /// by how much ([`on_chain_settled`]).
+    Settled(String),
 }
 
 /// One thing the driver does to one job.
@@ -364,3 +368,25 @@ pub fn on_cancel(jobs: &[JobRow]) -> Vec<Action> {
 
 #[cfg(test)]
 mod tests;
+
+/// The relative change of the coupling's response from the DEM run `before` to the
+/// one `now` (each run in the air of the CFD run before it) when it is below
+/// `tolerance`, the chain having settled; `None` while it has not (or when the change
+/// cannot be told: a zero or non-finite response).
+pub fn coupling_settled(before: f64, now: f64, tolerance: f64) -> Option<f64> {
+    let change = ((now - before) / before).abs();
+    (before != 0.0 && change.is_finite() && change < tolerance).then_some(change)
+}
+
+/// A coupled chain settled at job `settled` (`note` says how): the pending job that
+/// follows it is cancelled, and with it (through [`settle_and_launch`]'s upstream
+/// rule) the rest of the chain.
+pub fn on_chain_settled(jobs: &[JobRow], settled: i64, note: &str) -> Vec<Action> {
+    jobs.iter()
+        .filter(|j| j.after_job_id == Some(settled) && j.state() == JobState::Pending)
+        .map(|j| Action::Cancel {
+            job: j.id,
+            cause: CancelCause::Settled(note.to_string()),
+        })
+        .collect()
+}

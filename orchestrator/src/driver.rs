@@ -38,7 +38,6 @@ use orch_adapters::{CommandSpec, RunResults, Simulation, Upstream};
 use tokio::signal::unix::{signal, SignalKind};
 
 use crate::convergence::{self, ConvergenceWatch};
-use crate::coupling::{self, in_moving_air, AirProperties, AIR_FIELD_FILE, AIR_STAGE};
 use crate::decide::{self, is_launched, Action, Budgets, CancelCause, Failure};
 use crate::executor::{
     Executor, LaunchSpec, LocalExecutor, Recovered, SlurmExecutor, Unrecorded, Watched,
@@ -338,12 +337,6 @@ impl<E: Executor> Driver<'_, E> {
         format!("{}/{}", self.study.name, job.name)
     }
 
-    /// The case of `job`'s design point with its seed; its point read from the store
-    /// when the driver does not hold it.
-    async fn case(&self, job: &JobRow) -> Result<orch_adapters::Case, StoreError> {
-        Ok(self.case_and_simulation(job).await?.0)
-    }
-
     /// The case of `job`'s design point with its seed, and what runs it: the point's
     /// fidelity level's simulation (the study's without levels), both from the same
     /// point, read from the store when the driver does not hold it.
@@ -420,10 +413,11 @@ impl<E: Executor> Driver<'_, E> {
     }
 
     /// Cores a job uses, for the core budget: a stage's own (`cores` of OpenFOAM), else
-    /// the study's per design job (a coupled DEM job is one).
+    /// the study's per design job (a stage that runs the design again is one).
     fn cores_of(&self, job: &JobRow) -> usize {
-        match job.stage_kind().filter(|&k| k != AIR_STAGE) {
-            Some(kind) => self.study.stage(kind).map_or(1, |stage| stage.cores()),
+        let stage = job.stage_kind().and_then(|kind| self.study.stage(kind));
+        match stage.filter(|stage| !stage.stage.reruns_design()) {
+            Some(stage) => stage.cores(),
             None => self.study.executor.cores_per_job,
         }
     }
@@ -440,10 +434,16 @@ impl<E: Executor> Driver<'_, E> {
                 .map_err(|e| format!("cannot render the case: {e}"))?;
             return Ok(simulation.command());
         };
-        if kind == AIR_STAGE {
-            return self.render_in_air(job, run_dir).await;
-        }
         let stage = self.stage_of(kind)?;
+        let upstream = self.upstream_of(job, kind).await?;
+        stage
+            .stage
+            .render(&stage_case(stage, job), &upstream.view(), run_dir)
+            .map_err(|e| e.to_string())
+    }
+
+    /// What stage job `job` (of kind `kind`) reads of the job it follows.
+    async fn upstream_of(&self, job: &JobRow, kind: &str) -> Result<UpstreamRun, String> {
         let upstream = match job.after_job_id {
             Some(id) => self.store.job(id).await.map_err(|e| e.to_string())?,
             None => return Err(format!("a {kind} stage without its upstream job")),
@@ -453,49 +453,28 @@ impl<E: Executor> Driver<'_, E> {
             .job_responses(upstream.id)
             .await
             .map_err(|e| e.to_string())?;
-        let upstream_case = self.case(&upstream).await.map_err(|e| e.to_string())?;
-        let upstream = Upstream {
-            case: &upstream_case,
-            responses: &responses,
+        let (case, simulation) = self
+            .case_and_simulation(&upstream)
+            .await
+            .map_err(|e| e.to_string())?;
+        let stage_case = match upstream.stage_kind() {
+            Some(kind) => Some(stage_case(self.stage_of(kind)?, &upstream)),
+            None => None,
         };
-        stage
-            .stage
-            .render(&stage.case(), &upstream, run_dir)
-            .map_err(|e| e.to_string())
+        Ok(UpstreamRun {
+            run_dir: PathBuf::from(&upstream.run_dir),
+            case,
+            responses,
+            stage_case,
+            simulation,
+        })
     }
 
-    /// The air of the `cfd` job a coupled DEM job follows: its stage's density and
-    /// viscosity, and that job's run directory (where its grid of velocities is).
-    async fn air_before(&self, job: &JobRow) -> Result<(AirProperties, JobRow), String> {
-        let cfd_job = match job.after_job_id {
-            Some(id) => self.store.job(id).await.map_err(|e| e.to_string())?,
-            None => return Err(format!("an {AIR_STAGE} job without the cfd job it follows")),
-        };
-        let cfd = self.stage_of(&cfd_job.stage)?;
-        Ok((AirProperties::of_cfd(&cfd.case()), cfd_job))
-    }
-
-    /// Renders a coupled DEM job: the design point's case in the air of the `cfd` job
-    /// before it, whose grid of velocities becomes [`AIR_FIELD_FILE`].
-    async fn render_in_air(&self, job: &JobRow, run_dir: &Path) -> Result<CommandSpec, String> {
-        let (air, cfd_job) = self.air_before(job).await?;
-        let simulation = &self.study.simulation;
-        simulation
-            .render(
-                &in_moving_air(&self.case(job).await.map_err(|e| e.to_string())?, &air),
-                run_dir,
-            )
-            .map_err(|e| format!("cannot render the case: {e}"))?;
-        let field = orch_adapters::openfoam::air_field_csv(Path::new(&cfd_job.run_dir))
-            .map_err(|e| format!("cannot read the air of {}: {e}", cfd_job.name))?;
-        std::fs::write(run_dir.join(AIR_FIELD_FILE), field)
-            .map_err(|e| format!("cannot write {AIR_FIELD_FILE}: {e}"))?;
-        Ok(simulation.command())
-    }
-
-    /// After a coupled DEM job succeeded: when the study's response moved by less than
-    /// the tolerance since the DEM run before it, the chain's next job is cancelled
-    /// (and the rest with it); returns what happened, for the job's line.
+    /// After a rerun of the design in a coupled chain succeeded: when the study's
+    /// response moved by less than the tolerance since the DEM run two jobs before
+    /// ([`decide::coupling_settled`]), the chain's next job is cancelled (and the rest
+    /// with it, [`decide::on_chain_settled`]); returns what happened, for the job's
+    /// line.
     async fn settle_coupling(
         &mut self,
         job: &JobRow,
@@ -522,7 +501,7 @@ impl<E: Executor> Driver<'_, E> {
         let Some(&before) = before.get(&coupling.response) else {
             return Ok(None);
         };
-        let Some(change) = coupling::settled(before, now, coupling.tolerance) else {
+        let Some(change) = decide::coupling_settled(before, now, coupling.tolerance) else {
             return Ok(Some(format!(
                 "{} {before:.5} → {now:.5} in the CFD stage's air, not settled yet",
                 coupling.response
@@ -536,11 +515,8 @@ impl<E: Executor> Driver<'_, E> {
             100.0 * coupling.tolerance
         );
         let jobs = self.store.jobs(self.study_id).await?;
-        if let Some(next) = jobs
-            .iter()
-            .find(|j| j.after_job_id == Some(job.id) && j.state() == JobState::Pending)
-        {
-            self.store.mark_cancelled(next.id, &note).await?;
+        for next in decide::on_chain_settled(&jobs, job.id, &note) {
+            self.store.mark_cancelled(next.job(), &note).await?;
         }
         Ok(Some(note))
     }
@@ -849,6 +825,9 @@ impl<E: Executor> Driver<'_, E> {
                         let note = format!("its upstream job {upstream} was cancelled");
                         self.store.mark_cancelled(job.id, &note).await?;
                     }
+                    CancelCause::Settled(note) => {
+                        self.store.mark_cancelled(job.id, &note).await?;
+                    }
                     CancelCause::Study => {
                         // `orch cancel` may have got there first; that is fine.
                         self.store
@@ -923,8 +902,12 @@ impl<E: Executor> Driver<'_, E> {
     }
 
     fn log_file(&self, job: &JobRow) -> String {
-        match job.stage_kind().and_then(|kind| self.study.stage(kind)) {
-            Some(stage) => stage.stage.log_file().to_string(),
+        match job
+            .stage_kind()
+            .and_then(|kind| self.study.stage(kind))
+            .and_then(|stage| stage.stage.log_file())
+        {
+            Some(log) => log.to_string(),
             None => self.simulation_of(job).command().log_file,
         }
     }
@@ -955,19 +938,21 @@ impl<E: Executor> Driver<'_, E> {
     /// Ctrl-C or SIGTERM does not wait for a long read: [`Read::Interrupted`], and the
     /// job is left for `orch resume`.
     async fn read_run(&mut self, job: &JobRow) -> Result<Read, DriverError> {
-        let (mut case, simulation) = self.case_and_simulation(job).await?;
+        let (case, simulation) = self.case_and_simulation(job).await?;
         let stage = match job.stage_kind() {
-            Some(AIR_STAGE) => match self.air_before(job).await {
-                Ok((air, _)) => {
-                    case = in_moving_air(&case, &air);
-                    None
+            Some(kind) => {
+                let read = match self.stage_of(kind) {
+                    Ok(config) => self
+                        .upstream_of(job, kind)
+                        .await
+                        .map(|upstream| (config.stage, stage_case(config, job), upstream)),
+                    Err(reason) => Err(reason),
+                };
+                match read {
+                    Ok(read) => Some(read),
+                    Err(reason) => return Ok(Read::Unreadable(reason)),
                 }
-                Err(reason) => return Ok(Read::Unreadable(reason)),
-            },
-            Some(kind) => match self.stage_of(kind) {
-                Ok(config) => Some(config.stage),
-                Err(reason) => return Ok(Read::Unreadable(reason)),
-            },
+            }
             None => None,
         };
         let dir = PathBuf::from(&job.run_dir);
@@ -976,7 +961,7 @@ impl<E: Executor> Driver<'_, E> {
             return Ok(Read::Interrupted);
         }
         let parse = tokio::task::spawn_blocking(move || match stage {
-            Some(stage) => stage.results(&dir),
+            Some((stage, case, upstream)) => stage.results(&case, &upstream.view(), &dir),
             None => simulation.results(&case, &dir),
         });
         let mut stop = self.stop.clone();
@@ -1041,7 +1026,11 @@ impl<E: Executor> Driver<'_, E> {
         results: &JobResults,
     ) -> Result<(), DriverError> {
         self.prune(job);
-        if job.stage_kind() == Some(AIR_STAGE) {
+        let rerun = job
+            .stage_kind()
+            .and_then(|kind| self.study.stage(kind))
+            .is_some_and(|stage| stage.stage.reruns_design());
+        if rerun {
             if let Some(line) = self.settle_coupling(job, results).await? {
                 self.report(job, &line);
             }
@@ -1050,14 +1039,17 @@ impl<E: Executor> Driver<'_, E> {
     }
 
     /// Prunes the run directory of a job whose results are stored, as the study's
-    /// `keep:` says. The CFD stage of a coupled study keeps at most `results`: the next
-    /// DEM run in air reads its air from that directory. A directory that cannot be
-    /// pruned is reported, and the study goes on.
+    /// `keep:` says. The job a coupled chain's rerun follows (`cfd`) keeps at least
+    /// `results`: the rerun reads its air from that directory. A directory that cannot
+    /// be pruned is reported, and the study goes on.
     fn prune(&self, job: &JobRow) {
-        let coupled_stage =
-            self.study.coupling.is_some() && job.stage_kind().is_some_and(|kind| kind != AIR_STAGE);
+        let feeds_a_rerun = self
+            .study
+            .coupling
+            .as_ref()
+            .is_some_and(|c| job.stage_kind() == Some(c.feeder.stage.kind()));
         let keep = match self.study.keep {
-            crate::keep::Keep::None if coupled_stage => crate::keep::Keep::Results,
+            crate::keep::Keep::None if feeds_a_rerun => crate::keep::Keep::Results,
             keep => keep,
         };
         let run_dir = Path::new(&job.run_dir);
@@ -1160,7 +1152,9 @@ impl<E: Executor> Driver<'_, E> {
     /// Why a run that succeeded lacks responses the study asks for (its objective's and
     /// `responses:` that this kind of job produces), or `None` when it has them all.
     fn missing_responses(&self, job: &JobRow, results: &RunResults) -> Option<String> {
-        let produced: Vec<&str> = match job.stage_kind().and_then(|k| self.study.stage(k)) {
+        let stage = job.stage_kind().and_then(|k| self.study.stage(k));
+        // A rerun of the design owes what the design job owes.
+        let produced: Vec<&str> = match stage.filter(|s| !s.stage.reruns_design()) {
             Some(stage) => stage
                 .stage
                 .responses()
@@ -1289,4 +1283,34 @@ pub fn failure_summary(run_dir: &Path, log_file: &str) -> String {
         }
     }
     "it wrote no output".to_string()
+}
+
+/// A stage job's own case: its stage's parameters, with the job's seed.
+fn stage_case(stage: &StageConfig, job: &JobRow) -> orch_adapters::Case {
+    orch_adapters::Case {
+        seed: job.seed as u64,
+        ..stage.case()
+    }
+}
+
+/// What a stage job reads of the job it follows, owned; [`UpstreamRun::view`] lends
+/// it as the stage takes it.
+struct UpstreamRun {
+    run_dir: PathBuf,
+    case: orch_adapters::Case,
+    responses: std::collections::BTreeMap<String, f64>,
+    stage_case: Option<orch_adapters::Case>,
+    simulation: Arc<dyn Simulation>,
+}
+
+impl UpstreamRun {
+    fn view(&self) -> Upstream<'_> {
+        Upstream {
+            case: &self.case,
+            responses: &self.responses,
+            run_dir: &self.run_dir,
+            stage_case: self.stage_case.as_ref(),
+            simulation: self.simulation.as_ref(),
+        }
+    }
 }

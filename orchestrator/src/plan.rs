@@ -18,9 +18,12 @@
 
 use sha2::{Digest, Sha256};
 
-use crate::coupling::{self, AIR_STAGE};
-use crate::store::DESIGN_STAGE;
-use crate::study::{DesignPoint, Study};
+use orch_adapters::Stage;
+
+use crate::study::{Coupling, DesignPoint, Study};
+
+/// `jobs.stage` of a design job: the simulation of a design point itself.
+pub const DESIGN_STAGE: &str = "dem";
 
 /// Whether points are fitted or held out to test the fit.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -165,8 +168,8 @@ pub fn plan_points<'a>(
                 stage: DESIGN_STAGE,
                 after: None,
             });
-            // Stages follow the design job; a coupling chain follows its first `cfd`
-            // job, each job the one before it.
+            // Stages follow the design job; a coupling chain follows its first job of
+            // the stage the chain's reruns follow (`cfd`), each job the one before it.
             let mut chain_tail = None;
             for stage in stages {
                 let kind = stage.stage.kind();
@@ -183,25 +186,25 @@ pub fn plan_points<'a>(
                     stage: kind,
                     after: Some(design_job),
                 });
-                if kind == orch_adapters::openfoam::KIND {
+                if coupled.is_some_and(|c| c.feeder.stage.kind() == kind) {
                     chain_tail = Some(jobs.len() - 1);
                 }
             }
             if let Some(coupling) = coupled {
-                for (chained, kind) in coupling::chain(&name, coupling.iterations) {
-                    // A DEM run in air keeps its design job's seed: the same particles
-                    // in another air, so that the change the coupling watches is the
-                    // air's, not the insertion's (common random numbers).
-                    let stream = if kind == AIR_STAGE {
+                for (chained, stage) in chain(&name, coupling) {
+                    // A rerun of the design keeps its design job's seed: the same
+                    // particles in another air, so that the change the coupling watches
+                    // is the air's, not the insertion's (common random numbers).
+                    let stream = if stage.reruns_design() {
                         DESIGN_STAGE
                     } else {
-                        kind
+                        stage.kind()
                     };
                     jobs.push(PlannedJob {
                         name: chained,
                         replicate,
                         seed: job_seed(study.seed, &SeedKey { stream, ..key }),
-                        stage: kind,
+                        stage: stage.kind(),
                         after: Some(chain_tail.unwrap_or(design_job)),
                     });
                     chain_tail = Some(jobs.len() - 1);
@@ -216,6 +219,22 @@ pub fn plan_points<'a>(
         });
     }
     planned
+}
+
+/// Names and stages of the jobs `coupling` chains after design job `design` and its
+/// first job of the stage the reruns follow (`<design>-cfd`), in order: a rerun of
+/// the design and then that stage again, `iterations` reruns in all
+/// (`<design>-air1`, `<design>-cfd2`, `<design>-air2`, …).
+fn chain(design: &str, coupling: &Coupling) -> Vec<(String, &'static dyn Stage)> {
+    let (rerun, feeder) = (coupling.rerun.stage, coupling.feeder.stage);
+    let mut jobs = Vec::new();
+    for k in 1..=coupling.iterations {
+        jobs.push((format!("{design}-{}{k}", rerun.kind()), rerun));
+        if k < coupling.iterations {
+            jobs.push((format!("{design}-{}{}", feeder.kind(), k + 1), feeder));
+        }
+    }
+    jobs
 }
 
 /// A round's design points and held-out test points, planned: the design's first,
@@ -366,6 +385,42 @@ mod tests {
             .concat()
             .iter()
             .all(|seed| !s0.concat().contains(seed)));
+    }
+
+    #[test]
+    fn a_coupling_chain_alternates_reruns_of_the_design_and_the_stage_they_follow() {
+        let study = a_study(
+            "cfd:\n  fixed: {end_time: 0.2}\ncoupling: {iterations: 2, tolerance: 0.01}\n",
+        );
+        let points = [point(0.024)];
+        let planned = plan_points(&study, 0, &points, PointPurpose::Design);
+        let jobs = &planned[0].jobs;
+        let chain: Vec<(&str, &str, Option<usize>)> = jobs
+            .iter()
+            .map(|j| (j.name.as_str(), j.stage, j.after))
+            .collect();
+        assert_eq!(
+            chain,
+            vec![
+                ("p000r0", DESIGN_STAGE, None),
+                ("p000r0-cfd", "cfd", Some(0)),
+                ("p000r0-air1", "air", Some(1)),
+                ("p000r0-cfd2", "cfd", Some(2)),
+                ("p000r0-air2", "air", Some(3)),
+            ]
+        );
+        // A rerun of the design has its design job's seed (the same particles in
+        // another air); every CFD run has its own.
+        assert_eq!(jobs[2].seed, jobs[0].seed);
+        assert_eq!(jobs[4].seed, jobs[0].seed);
+        assert_ne!(jobs[1].seed, jobs[0].seed);
+        // One iteration: the chain is the one rerun.
+        let once = a_study(
+            "cfd:\n  fixed: {end_time: 0.2}\ncoupling: {iterations: 1, tolerance: 0.01}\n",
+        );
+        let planned = plan_points(&once, 0, &points, PointPurpose::Design);
+        let names: Vec<&str> = planned[0].jobs.iter().map(|j| j.name.as_str()).collect();
+        assert_eq!(names, ["p000r0", "p000r0-cfd", "p000r0-air1"]);
     }
 
     #[test]

@@ -74,8 +74,8 @@ impl Stage for StreamAir {
         "apt-get install -y openfoam (or scripts/setup)"
     }
 
-    fn log_file(&self) -> &'static str {
-        LOG_FILE
+    fn log_file(&self) -> Option<&'static str> {
+        Some(LOG_FILE)
     }
 
     fn render(
@@ -89,7 +89,12 @@ impl Stage for StreamAir {
         Ok(command(case))
     }
 
-    fn results(&self, run_dir: &Path) -> Result<RunResults, ParseError> {
+    fn results(
+        &self,
+        _case: &Case,
+        _upstream: &Upstream<'_>,
+        run_dir: &Path,
+    ) -> Result<RunResults, ParseError> {
         parse(run_dir)
     }
 }

@@ -809,3 +809,44 @@ proptest! {
         }
     }
 }
+
+#[test]
+fn a_coupled_chain_settles_when_the_response_moves_less_than_the_tolerance() {
+    assert!((coupling_settled(0.200, 0.201, 0.01).unwrap() - 0.005).abs() < 1e-12);
+    assert_eq!(coupling_settled(0.200, 0.210, 0.01), None);
+    // A zero or non-finite response cannot tell a relative change.
+    assert_eq!(coupling_settled(0.0, 0.0, 0.01), None);
+    assert_eq!(coupling_settled(0.2, f64::NAN, 0.01), None);
+}
+
+#[test]
+fn a_settled_chain_cancels_the_pending_job_after_the_settling_run_only() {
+    // dem 1 → cfd 2 → air 3 (settled) → cfd 4 (pending) → air 5 (pending).
+    let jobs = vec![
+        job(1, JobState::Succeeded),
+        stage(2, JobState::Succeeded, 1),
+        stage(3, JobState::Succeeded, 2),
+        stage(4, JobState::Pending, 3),
+        stage(5, JobState::Pending, 4),
+    ];
+    let actions = on_chain_settled(&jobs, 3, "settled at air1");
+    assert_eq!(
+        actions,
+        vec![Action::Cancel {
+            job: 4,
+            cause: CancelCause::Settled("settled at air1".into()),
+        }]
+    );
+    // The rest of the chain follows its cancelled upstream job.
+    let mut after = jobs.clone();
+    after[3] = stage(4, JobState::Cancelled, 3);
+    let next = settle_and_launch(&after, &budgets(4, 0), &none(), one_core);
+    assert!(next.contains(&Action::Cancel {
+        job: 5,
+        cause: CancelCause::Upstream(after[3].name.clone()),
+    }));
+    // A job already running is not taken back.
+    let mut running = jobs.clone();
+    running[3] = stage(4, JobState::Running, 3);
+    assert!(on_chain_settled(&running, 3, "settled").is_empty());
+}

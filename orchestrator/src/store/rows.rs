@@ -365,8 +365,7 @@ pub struct JobRow {
     pub reused_from: Option<String>,
 }
 
-/// `jobs.stage` of a design job: the simulation of a design point itself.
-pub const DESIGN_STAGE: &str = "dem";
+pub use crate::plan::DESIGN_STAGE;
 
 impl JobRow {
     /// The kind of stage this job is, or `None` for a design job.

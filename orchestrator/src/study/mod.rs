@@ -14,8 +14,8 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use orch_adapters::{
-    equipment_for, equipment_names, solver_for, solver_names, stage_for, stage_kinds, Case,
-    EquipmentOnSolver, ParameterSpec, ResolvedParameters, Simulation, Stage, DEFAULT_EQUIPMENT,
+    equipment_for, equipment_names, solver_for, solver_names, stage_for, Case, EquipmentOnSolver,
+    ParameterSpec, ResolvedParameters, Simulation, Stage, DEFAULT_EQUIPMENT,
 };
 use orch_metamodel::kriging::{Kernel, KrigingOptions, Trend};
 use orch_metamodel::levels::{coded_level, level_of};
@@ -427,10 +427,11 @@ pub struct StopWhen {
 }
 
 /// `coupling:`: after each design job and its `cfd` stage, the DEM runs again in the
-/// air that stage computed (a job of kind [`crate::coupling::AIR_STAGE`]), then the
-/// CFD again on the new stream, until `response` changes by less than `tolerance`
-/// (relative) between two DEM runs, or `iterations` DEM runs in air have been made.
-#[derive(Debug, Clone, PartialEq)]
+/// air that stage computed (a job of the stage `air`,
+/// [`orch_adapters::dem_in_air`]), then the CFD again on the new stream, until
+/// `response` changes by less than `tolerance` (relative) between two DEM runs, or
+/// `iterations` DEM runs in air have been made.
+#[derive(Debug, Clone)]
 pub struct Coupling {
     /// DEM runs in moving air, at most.
     pub iterations: u32,
@@ -438,6 +439,11 @@ pub struct Coupling {
     pub response: String,
     /// Relative change that ends the iteration.
     pub tolerance: f64,
+    /// The stage that runs the design point again in the air of the job before it.
+    pub rerun: StageConfig,
+    /// The stage of the study that each rerun follows, and that follows each rerun but
+    /// the last (`cfd`).
+    pub feeder: StageConfig,
 }
 
 /// The file whose presence in a run directory asks the solver to end the run as if
@@ -652,9 +658,14 @@ impl Study {
         self.fidelities.len().saturating_sub(1) as u32
     }
 
-    /// The stage of kind `kind`, if the study has it.
+    /// The stage of kind `kind`, if the study has it: under `stages:`, or the rerun
+    /// of its `coupling:`.
     pub fn stage(&self, kind: &str) -> Option<&StageConfig> {
-        self.stages.iter().find(|s| s.stage.kind() == kind)
+        let rerun = self.coupling.as_ref().map(|c| &c.rerun);
+        self.stages
+            .iter()
+            .chain(rerun)
+            .find(|s| s.stage.kind() == kind)
     }
 
     /// Every response the study's runs can produce: the equipment's, then each stage's.
@@ -878,10 +889,23 @@ impl Checker<'_> {
                     &at,
                     format!(
                         "unknown stage `{kind}`; expected one of: {}",
-                        stage_kinds().join(", ")
+                        orch_adapters::STAGES
+                            .iter()
+                            .filter(|s| !s.reruns_design())
+                            .map(|s| s.kind())
+                            .collect::<Vec<_>>()
+                            .join(", ")
                     ),
                 )
             })?;
+            if let (true, Some(follows)) = (stage.reruns_design(), stage.follows()) {
+                return Err(self.error(
+                    &at,
+                    format!(
+                        "the {kind} stage runs the design point again after a `{follows}` job; `coupling:` chains it, so drop it from `stages:` and add `coupling:`"
+                    ),
+                ));
+            }
             for (name, value) in &section.fixed {
                 let field = format!("{at}.fixed.{name}");
                 self.check_value(&field, name, *value, stage.parameters(), || {
@@ -1018,15 +1042,16 @@ impl Checker<'_> {
         simulation: &dyn Simulation,
         stages: &[StageConfig],
     ) -> Result<Coupling, StudyError> {
-        if !stages
+        let rerun: &'static dyn Stage = &orch_adapters::dem_in_air::DemInAir;
+        let Some(feeder) = stages
             .iter()
-            .any(|s| s.stage.kind() == orch_adapters::openfoam::KIND)
-        {
+            .find(|s| Some(s.stage.kind()) == rerun.follows())
+        else {
             return Err(self.error(
                 "coupling",
                 "couples the DEM with the air of the `cfd` stage: add `cfd:` (or `stages: {cfd: …}`) to the study",
             ));
-        }
+        };
         if coupling.iterations == 0 || coupling.iterations > 10 {
             return Err(self.error(
                 "coupling.iterations",
@@ -1071,7 +1096,8 @@ impl Checker<'_> {
             ));
         }
         let specs = simulation.parameters();
-        if !crate::coupling::AIR_PARAMETERS
+        if !rerun
+            .upstream_parameters()
             .iter()
             .all(|name| specs.iter().any(|s| s.name == *name))
         {
@@ -1080,7 +1106,7 @@ impl Checker<'_> {
                 format!(
                     "the {} equipment cannot run in moving air (it has no {} parameters)",
                     simulation.equipment_name(),
-                    crate::coupling::AIR_PARAMETERS.join(", ")
+                    rerun.upstream_parameters().join(", ")
                 ),
             ));
         }
@@ -1088,6 +1114,11 @@ impl Checker<'_> {
             iterations: coupling.iterations,
             response,
             tolerance: coupling.tolerance,
+            rerun: StageConfig {
+                stage: rerun,
+                fixed: BTreeMap::new(),
+            },
+            feeder: feeder.clone(),
         })
     }
 
@@ -1736,9 +1767,9 @@ impl Checker<'_> {
         let (Some(_), Some(point)) = (&study.coupling, study.points.first()) else {
             return Ok(());
         };
-        let moving = crate::coupling::in_moving_air(
+        let moving = orch_adapters::dem_in_air::in_moving_air(
             &study.case(point, 0),
-            &crate::coupling::AirProperties::default(),
+            &orch_adapters::dem_in_air::AirProperties::default(),
         );
         let simulation = &study.simulation;
         simulation

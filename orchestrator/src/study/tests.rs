@@ -655,13 +655,28 @@ fn coupling_needs_the_cfd_stage_and_the_native_kernel_and_defaults_to_the_headli
         "{native}{cfd}coupling: {{iterations: 2, tolerance: 0.01}}\n"
     ))
     .unwrap();
+    let coupling = study.coupling.as_ref().unwrap();
     assert_eq!(
-        study.coupling,
-        Some(Coupling {
-            iterations: 2,
-            response: "discharge_rate".to_string(),
-            tolerance: 0.01,
-        })
+        (
+            coupling.iterations,
+            coupling.response.as_str(),
+            coupling.tolerance
+        ),
+        (2, "discharge_rate", 0.01)
+    );
+    // The rerun of the design is the `air` stage, fed by the study's `cfd` stage, and
+    // the study finds it by its kind as it finds `cfd`.
+    assert_eq!(
+        (coupling.rerun.stage.kind(), coupling.feeder.stage.kind()),
+        ("air", "cfd")
+    );
+    assert_eq!(coupling.feeder.fixed.get("end_time"), Some(&0.2));
+    assert!(study.stage("air").is_some_and(|s| s.stage.reruns_design()));
+    // Listed under `stages:` instead of chained, it is refused with what to do.
+    let listed = error(&format!("{native}{cfd}stages: {{air: {{}}}}\n"));
+    assert!(
+        listed.contains("stages.air: the air stage runs the design point again after a `cfd` job; `coupling:` chains it"),
+        "{listed}"
     );
     let without_cfd = error(&format!(
         "{native}coupling: {{iterations: 2, tolerance: 0.01}}\n"

@@ -18,7 +18,7 @@
 
 use std::path::Path;
 
-use crate::stage::{Stage, StageError, Upstream};
+use crate::stage::{Stage, StageError, Upstream, UpstreamFiles};
 use crate::{Case, CommandSpec, ParameterSpec, ParseError, RenderError, ResponseSpec, RunResults};
 
 /// The stage's kind, in the store and in job names (`p000r0-air1`).
@@ -96,11 +96,11 @@ impl Stage for DemInAir {
         "The design point's DEM run again in the air velocities of the `cfd` job before it (chained by `coupling:`)"
     }
 
-    fn parameters(&self) -> &'static [ParameterSpec] {
+    fn parameters(&self) -> &[ParameterSpec] {
         &[]
     }
 
-    fn responses(&self) -> &'static [ResponseSpec] {
+    fn responses(&self) -> &[ResponseSpec] {
         // The simulation's own, which `reruns_design` says.
         &[]
     }
@@ -113,16 +113,16 @@ impl Stage for DemInAir {
         AIR_PARAMETERS
     }
 
-    fn programs(&self) -> &'static [&'static str] {
+    fn programs(&self) -> Vec<&str> {
         // The simulation's, which the design jobs need already.
-        &[]
+        Vec::new()
     }
 
     fn install_hint(&self) -> &'static str {
         "the design job's solver runs it"
     }
 
-    fn log_file(&self) -> Option<&'static str> {
+    fn log_file(&self) -> Option<&str> {
         None
     }
 
@@ -166,6 +166,11 @@ impl Stage for DemInAir {
 
     fn follows(&self) -> Option<&'static str> {
         Some(crate::openfoam::KIND)
+    }
+
+    fn upstream_files(&self) -> UpstreamFiles {
+        // The `cfd` job's probes of the air velocity.
+        UpstreamFiles::Results
     }
 }
 

@@ -28,6 +28,7 @@ pub mod native;
 pub mod openfoam;
 mod params;
 mod primes;
+pub mod script_stage;
 pub mod simulation;
 pub mod solver;
 pub mod stage;
@@ -46,7 +47,7 @@ pub use error::{ParseError, RenderError};
 pub use params::{ParameterSpec, ResolvedParameters};
 pub use simulation::{locked_tera, EquipmentOnSolver, Simulation, TemplateText};
 pub use solver::{solver_for, solver_names, DemSolver, SolverTemplate, SOLVERS};
-pub use stage::{stage_for, stage_kinds, Stage, StageError, Upstream, STAGES};
+pub use stage::{stage_for, stage_kinds, Stage, StageError, Upstream, UpstreamFiles, STAGES};
 
 /// One fully resolved simulation: every template parameter has a value.
 #[derive(Debug, Clone, PartialEq, Default)]

@@ -65,10 +65,10 @@ pub trait Stage: Send + Sync {
     fn description(&self) -> &'static str;
 
     /// Its parameters (set under the study's `fixed:` of the stage).
-    fn parameters(&self) -> &'static [ParameterSpec];
+    fn parameters(&self) -> &[ParameterSpec];
 
     /// The responses it produces.
-    fn responses(&self) -> &'static [ResponseSpec];
+    fn responses(&self) -> &[ResponseSpec];
 
     /// Upstream responses it reads; a study whose equipment lacks one is refused.
     fn upstream_responses(&self) -> &'static [&'static str];
@@ -77,14 +77,14 @@ pub trait Stage: Send + Sync {
     fn upstream_parameters(&self) -> &'static [&'static str];
 
     /// Programs that must be on PATH to run it.
-    fn programs(&self) -> &'static [&'static str];
+    fn programs(&self) -> Vec<&str>;
 
     /// How a user installs them.
     fn install_hint(&self) -> &'static str;
 
     /// The stage's log in its run directory; `None`: the design's simulation's log
     /// (a stage that runs the design point again).
-    fn log_file(&self) -> Option<&'static str>;
+    fn log_file(&self) -> Option<&str>;
 
     /// Writes the stage's input for `case` (its parameters, with the job's seed) fed
     /// by `upstream` into `run_dir`, and returns the command that runs it.
@@ -117,6 +117,23 @@ pub trait Stage: Send + Sync {
     fn follows(&self) -> Option<&'static str> {
         None
     }
+
+    /// What it reads of the upstream job's run directory, which that job must keep
+    /// until this one has run.
+    fn upstream_files(&self) -> UpstreamFiles {
+        UpstreamFiles::None
+    }
+}
+
+/// What a stage reads of the files its upstream job left in its run directory.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+pub enum UpstreamFiles {
+    /// Nothing: only the upstream job's case and stored responses.
+    None,
+    /// What the upstream's parsers read (logs, probes, tables), not particle snapshots.
+    Results,
+    /// Anything, snapshots included (a user's script).
+    Everything,
 }
 
 /// Every stage kind `orch` knows.

@@ -701,7 +701,7 @@ async fn submit(
         check_installed(simulation)?;
     }
     for stage in &study.stages {
-        let stage = stage.stage;
+        let stage = &stage.stage;
         if let Some(missing) = stage.programs().iter().find(|p| !program_exists(p)) {
             return Err(input_error(format!(
                 "the study has a `{}` stage but its program `{missing}` is not on PATH; install it with `{}` and submit again; nothing was written",
@@ -1187,21 +1187,27 @@ async fn logs(project_dir: Option<&Path>, reference: &str, tail: usize) -> anyho
             )))
         }
     };
-    // The log a job's solver writes: its stage's, its DEM solver's, or the one a user's
-    // own deck declares (`log:`), read from the stored study.
-    let log_file: Option<String> = match job
-        .stage_kind()
-        .and_then(orch_adapters::stage_for)
-        .and_then(|stage| stage.log_file())
-    {
-        Some(log) => Some(log.to_string()),
-        None => match orch_adapters::solver_for(&study.solver) {
-            Some(solver) => Some(solver.log_file.to_string()),
-            None => stored_study(&store, &study)
-                .await?
-                .ok()
-                .map(|stored| stored.simulation.command().log_file),
-        },
+    // The log a job's solver writes: a built-in stage's, its DEM solver's, or the one a
+    // user's own deck or script declares (`log:`), read from the stored study.
+    let stage = job.stage_kind();
+    let built_in = match stage {
+        Some(kind) => orch_adapters::stage_for(kind).map(|stage| stage.log_file()),
+        None => Some(None),
+    };
+    let log_file: Option<String> = match built_in {
+        Some(Some(log)) => Some(log.to_string()),
+        Some(None) if orch_adapters::solver_for(&study.solver).is_some() => {
+            orch_adapters::solver_for(&study.solver).map(|solver| solver.log_file.to_string())
+        }
+        _ => stored_study(&store, &study).await?.ok().map(|stored| {
+            match stage
+                .and_then(|kind| stored.stage(kind))
+                .and_then(|config| config.stage.log_file())
+            {
+                Some(log) => log.to_string(),
+                None => stored.simulation.command().log_file,
+            }
+        }),
     };
     outln!(
         "job {}/{}: {} after {} attempt(s){}",

@@ -34,7 +34,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use orch_adapters::{CommandSpec, RunResults, Simulation, Upstream};
+use orch_adapters::{CommandSpec, RunResults, Simulation, Upstream, UpstreamFiles};
 use tokio::signal::unix::{signal, SignalKind};
 
 use crate::convergence::{self, ConvergenceWatch};
@@ -945,7 +945,7 @@ impl<E: Executor> Driver<'_, E> {
                     Ok(config) => self
                         .upstream_of(job, kind)
                         .await
-                        .map(|upstream| (config.stage, stage_case(config, job), upstream)),
+                        .map(|upstream| (config.stage.clone(), stage_case(config, job), upstream)),
                     Err(reason) => Err(reason),
                 };
                 match read {
@@ -1039,19 +1039,20 @@ impl<E: Executor> Driver<'_, E> {
     }
 
     /// Prunes the run directory of a job whose results are stored, as the study's
-    /// `keep:` says. The job a coupled chain's rerun follows (`cfd`) keeps at least
-    /// `results`: the rerun reads its air from that directory. A directory that cannot
-    /// be pruned is reported, and the study goes on.
+    /// `keep:` says, but never below what a stage that follows it reads there
+    /// ([`orch_adapters::Stage::upstream_files`]): a coupled chain's `cfd` job keeps
+    /// at least `results` (the rerun reads its air), a job a user's script follows
+    /// keeps everything. A directory that cannot be pruned is reported, and the study
+    /// goes on.
     fn prune(&self, job: &JobRow) {
-        let feeds_a_rerun = self
+        let needed = self
             .study
-            .coupling
-            .as_ref()
-            .is_some_and(|c| job.stage_kind() == Some(c.feeder.stage.kind()));
-        let keep = match self.study.keep {
-            crate::keep::Keep::None if feeds_a_rerun => crate::keep::Keep::Results,
-            keep => keep,
-        };
+            .stages_following(job.stage_kind())
+            .iter()
+            .map(|stage| stage.stage.upstream_files())
+            .max()
+            .unwrap_or(UpstreamFiles::None);
+        let keep = self.study.keep.at_least(needed);
         let run_dir = Path::new(&job.run_dir);
         if let Err(e) = crate::keep::prune(run_dir, keep, &self.log_file(job)) {
             self.report(

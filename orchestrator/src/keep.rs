@@ -12,12 +12,13 @@
 //!   [`RECORD_FILE`], which says what was removed.
 //!
 //! Failed jobs keep everything: the driver prunes only after a job's results are
-//! stored as succeeded. What a later job reads from a run directory (the CFD stage's air
-//! in a coupled study) is the caller's to protect, by asking for at most `results`.
+//! stored as succeeded, and never below what a stage that follows the job reads there
+//! ([`Keep::at_least`]).
 
 use std::io::{self, Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 
+use orch_adapters::UpstreamFiles;
 use serde::Deserialize;
 
 use crate::executor::{ATTEMPTS_LOG, EXIT_STATUS_FILE, STDERR_FILE, STDOUT_FILE};
@@ -42,6 +43,15 @@ impl Keep {
             Keep::All => "all",
             Keep::Results => "results",
             Keep::None => "none",
+        }
+    }
+
+    /// This, or more where a later job reads `needed` of the run directory.
+    pub fn at_least(self, needed: UpstreamFiles) -> Keep {
+        match (self, needed) {
+            (_, UpstreamFiles::Everything) => Keep::All,
+            (Keep::None, UpstreamFiles::Results) => Keep::Results,
+            (keep, _) => keep,
         }
     }
 }
@@ -235,6 +245,18 @@ mod tests {
         walk(dir, dir, &mut out);
         out.sort();
         out
+    }
+
+    #[test]
+    fn a_run_directory_keeps_at_least_what_a_following_stage_reads() {
+        use UpstreamFiles as Needs;
+        assert_eq!(Keep::None.at_least(Needs::None), Keep::None);
+        assert_eq!(Keep::None.at_least(Needs::Results), Keep::Results);
+        assert_eq!(Keep::Results.at_least(Needs::Results), Keep::Results);
+        assert_eq!(Keep::All.at_least(Needs::Results), Keep::All);
+        for keep in [Keep::None, Keep::Results, Keep::All] {
+            assert_eq!(keep.at_least(Needs::Everything), Keep::All);
+        }
     }
 
     #[test]

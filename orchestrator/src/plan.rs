@@ -225,8 +225,9 @@ pub fn plan_points<'a>(
 /// first job of the stage the reruns follow (`<design>-cfd`), in order: a rerun of
 /// the design and then that stage again, `iterations` reruns in all
 /// (`<design>-air1`, `<design>-cfd2`, `<design>-air2`, …).
-fn chain(design: &str, coupling: &Coupling) -> Vec<(String, &'static dyn Stage)> {
-    let (rerun, feeder) = (coupling.rerun.stage, coupling.feeder.stage);
+fn chain<'a>(design: &str, coupling: &'a Coupling) -> Vec<(String, &'a dyn Stage)> {
+    let (rerun, feeder): (&dyn Stage, &dyn Stage) =
+        (&*coupling.rerun.stage, &*coupling.feeder.stage);
     let mut jobs = Vec::new();
     for k in 1..=coupling.iterations {
         jobs.push((format!("{design}-{}{k}", rerun.kind()), rerun));
@@ -389,9 +390,8 @@ mod tests {
 
     #[test]
     fn a_coupling_chain_alternates_reruns_of_the_design_and_the_stage_they_follow() {
-        let study = a_study(
-            "cfd:\n  fixed: {end_time: 0.2}\ncoupling: {iterations: 2, tolerance: 0.01}\n",
-        );
+        let study =
+            a_study("cfd:\n  fixed: {end_time: 0.2}\ncoupling: {iterations: 2, tolerance: 0.01}\n");
         let points = [point(0.024)];
         let planned = plan_points(&study, 0, &points, PointPurpose::Design);
         let jobs = &planned[0].jobs;
@@ -415,9 +415,8 @@ mod tests {
         assert_eq!(jobs[4].seed, jobs[0].seed);
         assert_ne!(jobs[1].seed, jobs[0].seed);
         // One iteration: the chain is the one rerun.
-        let once = a_study(
-            "cfd:\n  fixed: {end_time: 0.2}\ncoupling: {iterations: 1, tolerance: 0.01}\n",
-        );
+        let once =
+            a_study("cfd:\n  fixed: {end_time: 0.2}\ncoupling: {iterations: 1, tolerance: 0.01}\n");
         let planned = plan_points(&once, 0, &points, PointPurpose::Design);
         let names: Vec<&str> = planned[0].jobs.iter().map(|j| j.name.as_str()).collect();
         assert_eq!(names, ["p000r0", "p000r0-cfd", "p000r0-air1"]);

@@ -27,6 +27,7 @@ mod refusals;
 mod reports;
 mod reuse;
 mod rounds;
+mod scripts;
 mod slurm;
 mod stop_when;
 mod study_files;

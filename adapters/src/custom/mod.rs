@@ -165,6 +165,11 @@ impl CustomDeck {
     pub fn templates(&self) -> &[CaseTemplate] {
         &self.templates
     }
+
+    /// The command's log in the run directory.
+    pub fn log_file(&self) -> &str {
+        &self.command.log_file
+    }
 }
 
 impl Simulation for CustomDeck {

@@ -50,11 +50,11 @@ impl Stage for StreamAir {
         "OpenFOAM (pimpleFoam) case of the air the DEM job's particle stream drags under the outlet"
     }
 
-    fn parameters(&self) -> &'static [ParameterSpec] {
+    fn parameters(&self) -> &[ParameterSpec] {
         PARAMETERS
     }
 
-    fn responses(&self) -> &'static [ResponseSpec] {
+    fn responses(&self) -> &[ResponseSpec] {
         RESPONSE_SPECS
     }
 
@@ -66,15 +66,15 @@ impl Stage for StreamAir {
         UPSTREAM_PARAMETERS
     }
 
-    fn programs(&self) -> &'static [&'static str] {
-        &["blockMesh", "topoSet", "pimpleFoam"]
+    fn programs(&self) -> Vec<&str> {
+        vec!["blockMesh", "topoSet", "pimpleFoam"]
     }
 
     fn install_hint(&self) -> &'static str {
         "apt-get install -y openfoam (or scripts/setup)"
     }
 
-    fn log_file(&self) -> Option<&'static str> {
+    fn log_file(&self) -> Option<&str> {
         Some(LOG_FILE)
     }
 

@@ -171,13 +171,25 @@ impl Checker<'_> {
                 "a custom case lists its templates under `case.templates`; remove `template:`",
             ));
         }
+        self.deck_of(case, "case", inputs)
+    }
+
+    /// A deck from a `case:` section at field `at` (`case`, or a script stage's
+    /// `stages.script.case`): templates (compiled), side files, command, declared
+    /// parameters and responses. Every file read is added to `inputs`.
+    pub(super) fn deck_of(
+        &self,
+        case: &file::CaseFile,
+        at: &str,
+        inputs: &mut Vec<(String, Vec<u8>)>,
+    ) -> Result<CustomDeck, StudyError> {
         if case.templates.is_empty() {
-            return Err(self.error("case.templates", "expected at least one template"));
+            return Err(self.error(&format!("{at}.templates"), "expected at least one template"));
         }
         let mut templates = Vec::new();
         let mut outputs: Vec<String> = Vec::new();
         for (i, relative) in case.templates.iter().enumerate() {
-            let field = format!("case.templates[{i}]");
+            let field = format!("{at}.templates[{i}]");
             let bytes = self.read_input(&field, relative)?;
             let text = String::from_utf8(bytes.clone()).map_err(|_| {
                 self.error(
@@ -198,7 +210,7 @@ impl Checker<'_> {
         }
         let mut files = Vec::new();
         for (i, relative) in case.files.iter().enumerate() {
-            let field = format!("case.files[{i}]");
+            let field = format!("{at}.files[{i}]");
             // A file lands at its path relative to the study file's folder; a folder's
             // files each at theirs.
             for (path, bytes) in self.read_inputs(&field, relative)? {
@@ -210,28 +222,28 @@ impl Checker<'_> {
         }
         let mut folders = Vec::new();
         for (i, folder) in case.folders.iter().enumerate() {
-            let field = format!("case.folders[{i}]");
+            let field = format!("{at}.folders[{i}]");
             self.relative_path(&field, folder)?;
             folders.push(normal_path(folder));
         }
         let cores = case.cores.unwrap_or(1);
         if cores == 0 || cores > MAX_CORES_PER_JOB {
             return Err(self.error(
-                "case.cores",
+                &format!("{at}.cores"),
                 format!("expected 1 to {MAX_CORES_PER_JOB} cores, got {cores}"),
             ));
         }
-        let command = self.command(&case.command, cores)?;
+        let command = self.command(&format!("{at}.command"), &case.command, cores)?;
         let log_file = match &case.log {
             Some(log) => {
-                self.relative_path("case.log", log)?;
+                self.relative_path(&format!("{at}.log"), log)?;
                 log.clone()
             }
             None => crate::executor::STDOUT_FILE.to_string(),
         };
         let mut parameters = Vec::new();
         for (name, declared) in &case.parameters {
-            let at = format!("case.parameters.{name}");
+            let at = format!("{at}.parameters.{name}");
             let (min, max) = (
                 declared.min.unwrap_or(f64::NEG_INFINITY),
                 declared.max.unwrap_or(f64::INFINITY),
@@ -256,20 +268,20 @@ impl Checker<'_> {
         }
         if case.responses.is_empty() {
             return Err(self.error(
-                "case.responses",
+                &format!("{at}.responses"),
                 "expected at least one response to read from each run",
             ));
         }
         let mut responses = Vec::new();
         for (i, declared) in case.responses.iter().enumerate() {
             let response =
-                self.declared_response(&format!("case.responses[{i}]"), declared, &log_file)?;
+                self.declared_response(&format!("{at}.responses[{i}]"), declared, &log_file)?;
             if responses
                 .iter()
                 .any(|r: &DeclaredResponse| r.name == response.name)
             {
                 return Err(self.error(
-                    &format!("case.responses[{i}].name"),
+                    &format!("{at}.responses[{i}].name"),
                     format!("response `{}` is declared twice", response.name),
                 ));
             }
@@ -287,24 +299,24 @@ impl Checker<'_> {
             parameters,
             responses,
         )
-        .map_err(|e| self.error("case.templates", e.to_string()))
+        .map_err(|e| self.error(&format!("{at}.templates"), e.to_string()))
     }
 
     /// The command's words, each rendered with `cores`.
-    fn command(&self, words: &[String], cores: usize) -> Result<Vec<String>, StudyError> {
+    fn command(&self, at: &str, words: &[String], cores: usize) -> Result<Vec<String>, StudyError> {
         if words.is_empty() || words[0].trim().is_empty() {
             return Err(self.error(
-                "case.command",
+                at,
                 "expected the program and its arguments, one word each: [liggghts, -in, in.deck]",
             ));
         }
         if let Some(i) = words.iter().position(|w| w.chars().any(char::is_control)) {
             return Err(self.error(
-                &format!("case.command[{i}]"),
+                &format!("{at}[{i}]"),
                 "expected a word without control characters",
             ));
         }
-        render_command(words, cores).map_err(|e| self.error("case.command", e))
+        render_command(words, cores).map_err(|e| self.error(at, e))
     }
 
     /// One declared response: exactly one source, a known reduction.

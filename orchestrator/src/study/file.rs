@@ -297,13 +297,18 @@ pub struct DeclaredResponseFile {
     pub pick: Option<String>,
 }
 
-/// A stage's section: its parameters held constant.
+/// A stage's section: its parameters held constant, and for a user's script stage its
+/// deck.
 #[derive(Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct StageFile {
     /// Stage parameters by name, SI units (`orch params` lists them).
     #[serde(default)]
     pub fixed: BTreeMap<String, f64>,
+    /// The `script` stage's deck: templates, files, command and responses, as a custom
+    /// case's `case:` (its templates also see `upstream_dir` and `upstream_<name>`).
+    #[serde(default)]
+    pub case: Option<CaseFile>,
 }
 
 /// Minimise or maximise.

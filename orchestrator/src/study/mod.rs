@@ -13,6 +13,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Duration;
 
+use orch_adapters::script_stage;
 use orch_adapters::{
     equipment_for, equipment_names, solver_for, solver_names, stage_for, Case, EquipmentOnSolver,
     ParameterSpec, ResolvedParameters, Simulation, Stage, DEFAULT_EQUIPMENT,
@@ -464,12 +465,33 @@ pub struct Stored {
     pub for_reading: bool,
 }
 
+/// A stage as a study holds it: a built-in kind ([`orch_adapters::STAGES`]), or one the
+/// study file configures (a user's script, [`orch_adapters::script_stage`]).
+#[derive(Clone)]
+pub enum StageRef {
+    /// A kind of the registry.
+    BuiltIn(&'static dyn Stage),
+    /// A kind built from the study file.
+    Configured(Arc<dyn Stage>),
+}
+
+impl std::ops::Deref for StageRef {
+    type Target = dyn Stage;
+
+    fn deref(&self) -> &(dyn Stage + 'static) {
+        match self {
+            StageRef::BuiltIn(stage) => *stage,
+            StageRef::Configured(stage) => stage.as_ref(),
+        }
+    }
+}
+
 /// A stage run after each design job of the study, fed by that job's case and
 /// responses.
 #[derive(Clone)]
 pub struct StageConfig {
     /// The stage.
-    pub stage: &'static dyn Stage,
+    pub stage: StageRef,
     /// Its parameters held constant; the rest keep their defaults.
     pub fixed: BTreeMap<String, f64>,
 }
@@ -668,6 +690,25 @@ impl Study {
             .find(|s| s.stage.kind() == kind)
     }
 
+    /// The stages whose jobs follow a job of kind `kind` (`None`: a design job), whose
+    /// [`Stage::upstream_files`] say what that job's run directory must keep.
+    pub fn stages_following(&self, kind: Option<&str>) -> Vec<&StageConfig> {
+        match kind {
+            None => self
+                .stages
+                .iter()
+                .filter(|s| s.stage.follows().is_none())
+                .collect(),
+            Some(kind) => self
+                .coupling
+                .iter()
+                .flat_map(|c| [(&c.feeder, &c.rerun), (&c.rerun, &c.feeder)])
+                .filter(|(before, _)| before.stage.kind() == kind)
+                .map(|(_, after)| after)
+                .collect(),
+        }
+    }
+
     /// Every response the study's runs can produce: the equipment's, then each stage's.
     pub fn known_responses(&self) -> Vec<&str> {
         known_responses(self.simulation.as_ref(), &self.stages)
@@ -759,7 +800,7 @@ pub fn coded_design(kind: &DesignKind, levels: &[u32]) -> Result<Vec<Vec<f64>>, 
 }
 
 /// Every response of `simulation` and of `stages`.
-fn known_responses<'a>(simulation: &'a dyn Simulation, stages: &[StageConfig]) -> Vec<&'a str> {
+fn known_responses<'a>(simulation: &'a dyn Simulation, stages: &'a [StageConfig]) -> Vec<&'a str> {
     let stage_responses = stages.iter().flat_map(|s| s.stage.responses());
     simulation
         .responses()
@@ -866,6 +907,7 @@ impl Checker<'_> {
         &self,
         file: &StudyFile,
         simulation: &dyn Simulation,
+        inputs: &mut Vec<(String, Vec<u8>)>,
     ) -> Result<Vec<StageConfig>, StudyError> {
         let mut sections: Vec<(String, &file::StageFile)> = file
             .stages
@@ -884,20 +926,40 @@ impl Checker<'_> {
         let mut stages = Vec::new();
         for (at, section) in sections {
             let kind = at.trim_start_matches("stages.");
-            let stage = stage_for(kind).ok_or_else(|| {
-                self.error(
-                    &at,
-                    format!(
-                        "unknown stage `{kind}`; expected one of: {}",
-                        orch_adapters::STAGES
-                            .iter()
-                            .filter(|s| !s.reruns_design())
-                            .map(|s| s.kind())
-                            .collect::<Vec<_>>()
-                            .join(", ")
-                    ),
-                )
-            })?;
+            let stage = match (&section.case, stage_for(kind)) {
+                (Some(case), _) if kind == script_stage::KIND => {
+                    let deck = self.deck_of(case, &format!("{at}.case"), inputs)?;
+                    StageRef::Configured(Arc::new(script_stage::ScriptStage::new(deck)))
+                }
+                (None, _) if kind == script_stage::KIND => {
+                    return Err(self.error(
+                        &at,
+                        "the script stage runs your own deck: give it a `case:` with templates, command and responses, as `equipment: custom` takes (see docs/custom-decks.md)",
+                    ))
+                }
+                (Some(_), Some(_)) => {
+                    return Err(self.error(
+                        &format!("{at}.case"),
+                        format!("the {kind} stage is built in and takes no `case:`; only the script stage runs a deck of yours"),
+                    ))
+                }
+                (_, Some(stage)) => StageRef::BuiltIn(stage),
+                (_, None) => {
+                    let kinds: Vec<&str> = orch_adapters::STAGES
+                        .iter()
+                        .filter(|s| !s.reruns_design())
+                        .map(|s| s.kind())
+                        .chain([script_stage::KIND])
+                        .collect();
+                    return Err(self.error(
+                        &at,
+                        format!(
+                            "unknown stage `{kind}`; expected one of: {}",
+                            kinds.join(", ")
+                        ),
+                    ));
+                }
+            };
             if let (true, Some(follows)) = (stage.reruns_design(), stage.follows()) {
                 return Err(self.error(
                     &at,
@@ -1115,7 +1177,7 @@ impl Checker<'_> {
             response,
             tolerance: coupling.tolerance,
             rerun: StageConfig {
-                stage: rerun,
+                stage: StageRef::BuiltIn(rerun),
                 fixed: BTreeMap::new(),
             },
             feeder: feeder.clone(),
@@ -1360,7 +1422,7 @@ impl Checker<'_> {
         }
         let fidelities = self.fidelities(&file, &simulation, points.len())?;
         let points = nested_points(points, &fidelities);
-        let stages = self.stages(&file, simulation.as_ref())?;
+        let stages = self.stages(&file, simulation.as_ref(), &mut inputs)?;
         let known_responses = known_responses(simulation.as_ref(), &stages);
         for (i, response) in file.responses.iter().enumerate() {
             if !known_responses.contains(&response.as_str()) {

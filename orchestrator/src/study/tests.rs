@@ -360,7 +360,7 @@ fn responses_come_from_the_equipment_and_its_stages() {
 fn stage_sections_are_checked() {
     assert_eq!(
         error(&format!("{VALID}stages:\n  dpm: {{}}\n")),
-        "jobs/study.yaml:19:8: stages.dpm: unknown stage `dpm`; expected one of: cfd"
+        "jobs/study.yaml:19:8: stages.dpm: unknown stage `dpm`; expected one of: cfd, script"
     );
     assert!(error(&format!("{VALID}stages:\n  cfd: {{fixed: {{end_tme: 1}}}}\n")).starts_with(
         "jobs/study.yaml:19:26: stages.cfd.fixed.end_tme: `end_tme` is not a parameter of the cfd stage; expected one of: air_density,"
@@ -372,6 +372,54 @@ fn stage_sections_are_checked() {
     assert_eq!(
         error(&format!("{VALID}cfd: {{}}\nstages:\n  cfd: {{}}\n")),
         "jobs/study.yaml:18:6: cfd: the cfd stage is given twice, as `cfd:` and under `stages:`; keep one"
+    );
+}
+
+#[test]
+fn a_script_stage_is_a_deck_of_the_user_s_run_after_each_design_job() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("count.sh.tera"),
+        "wc -l < {{ upstream_dir }}/post/crossings.csv\n",
+    )
+    .unwrap();
+    let load = |stages: &str| {
+        let path = dir.path().join("scripted.yaml");
+        std::fs::write(&path, format!("{VALID}stages:\n{stages}")).unwrap();
+        Study::load(&path)
+    };
+    let script = "  script:\n    case:\n      templates: [count.sh.tera]\n      command: [sh, count.sh]\n      responses:\n        - {name: crossings, regex: '^(\\d+)'}\n";
+    let study = load(script).unwrap();
+    let stage = study.stage("script").unwrap();
+    assert_eq!(stage.stage.responses()[0].name, "crossings");
+    assert_eq!(stage.stage.programs(), ["sh"]);
+    assert!(study.known_responses().contains(&"crossings"));
+    // The design job keeps its files for it, whatever `keep:` says.
+    let following = study.stages_following(None);
+    assert_eq!(following.len(), 1);
+    assert_eq!(
+        following[0].stage.upstream_files(),
+        orch_adapters::UpstreamFiles::Everything
+    );
+    // Its template is one of the study's inputs, so the stored study renders it again.
+    assert!(study.inputs.iter().any(|(path, _)| path == "count.sh.tera"));
+    let error = |stages: &str| load(stages).map(drop).unwrap_err().to_string();
+    assert!(
+        error("  script: {}\n")
+            .contains("stages.script: the script stage runs your own deck: give it a `case:`"),
+        "{}",
+        error("  script: {}\n")
+    );
+    let missing = error(&script.replace("count.sh.tera", "cuont.sh.tera"));
+    assert!(
+        missing.contains("stages.script.case.templates[0]"),
+        "{missing}"
+    );
+    let cfd_with_case =
+        error("  cfd:\n    case: {templates: [count.sh.tera], command: [sh], responses: []}\n");
+    assert!(
+        cfd_with_case.contains("stages.cfd.case: the cfd stage is built in and takes no `case:`"),
+        "{cfd_with_case}"
     );
 }
 

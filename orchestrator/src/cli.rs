@@ -158,6 +158,10 @@ pub enum Command {
         /// Runs at once (one core each).
         #[arg(long, default_value_t = 2)]
         parallel: usize,
+        /// A run still going after this long is stopped and counts as a failed run
+        /// (`90s`, `30min`, `2h`).
+        #[arg(long, default_value = "1h", value_parser = humantime::parse_duration)]
+        time_limit: std::time::Duration,
         /// Keep the run directories (default: removed when every run succeeded).
         #[arg(long)]
         keep_runs: bool,
@@ -249,6 +253,7 @@ pub async fn run(args: Args) -> anyhow::Result<i32> {
             solvers,
             perturb,
             parallel,
+            time_limit,
             keep_runs,
             no_reuse,
         } => {
@@ -257,6 +262,7 @@ pub async fn run(args: Args) -> anyhow::Result<i32> {
                 solvers,
                 perturb,
                 parallel,
+                time_limit,
                 keep_runs,
                 no_reuse,
             };
@@ -445,6 +451,7 @@ struct CompareArgs {
     solvers: Vec<String>,
     perturb: Vec<String>,
     parallel: usize,
+    time_limit: std::time::Duration,
     keep_runs: bool,
     no_reuse: bool,
 }
@@ -533,6 +540,7 @@ async fn compare(
         solvers,
         perturbation: perturbation.clone(),
         parallel: args.parallel,
+        time_limit: args.time_limit,
         runs_dir: runs_dir.clone(),
         known: if args.no_reuse {
             Default::default()
@@ -548,10 +556,20 @@ async fn compare(
         args.parallel,
         runs_dir.display()
     );
-    let suite_for_run = suite.clone();
-    let outcome = tokio::task::spawn_blocking(move || compare::run_suite(&suite_for_run, &options))
-        .await
-        .context("the comparison stopped")?;
+    let stop = crate::driver::stop_on_signals().context("cannot watch for Ctrl-C")?;
+    let mut executor = crate::executor::local::LocalExecutor::new();
+    let outcome = compare::run_suite(&suite, &options, &mut executor, &stop).await;
+    if outcome.interrupted {
+        // What finished is kept: the next comparison takes those runs, not runs them.
+        store.record_comparison_runs(&outcome.made).await?;
+        errln!(
+            "orch compare: interrupted; the {} runs that finished are kept in the project and the next `orch compare` takes them instead of running them again; nothing was compared (runs in {})",
+            outcome.made.len(),
+            runs_dir.display()
+        );
+        store.close().await;
+        return Ok(exit_codes::INTERRUPTED);
+    }
     let verdict = outcome.verdict();
     let suite_dir = suite_file
         .parent()

@@ -268,7 +268,7 @@ enum Read {
 
 /// A flag that turns true on the first Ctrl-C (SIGINT) or SIGTERM, set by a task of its
 /// own, so that a driver busy reading a large output still stops within a tick.
-fn stop_on_signals() -> Result<tokio::sync::watch::Receiver<bool>, DriverError> {
+pub(crate) fn stop_on_signals() -> Result<tokio::sync::watch::Receiver<bool>, DriverError> {
     let mut interrupt = signal(SignalKind::interrupt()).map_err(DriverError::Signals)?;
     let mut terminate = signal(SignalKind::terminate()).map_err(DriverError::Signals)?;
     let (set, flag) = tokio::sync::watch::channel(false);

@@ -2,7 +2,9 @@
 //! nightly comparison agrees, is stored with its solvers' versions, and a deliberately
 //! perturbed native kernel is caught as a regression naming the response.
 
-use std::time::Instant;
+use std::path::{Path, PathBuf};
+use std::process::Stdio;
+use std::time::{Duration, Instant};
 
 use crate::support::{require_liggghts, root, solver_lock, text, Project};
 
@@ -129,4 +131,96 @@ fn compare_refuses_a_bad_suite_and_bad_options() {
         assert!(stderr.contains(expected), "{args:?}: {stderr}");
     }
     assert!(!project.project_dir().join("orch.db").exists());
+}
+
+/// One small hopper case, two seeds: runs of a few seconds each.
+const SMALL_SUITE: &str = "\
+confidence: 0.95
+cases:
+  - name: hopper-small
+    description: a small hopper for the runner's limits
+    equipment: hopper
+    quick: true
+    seeds: [1, 2]
+    fixed: {n_particles: 1500, fill_time: 0.25, discharge_time: 0.5}
+    responses:
+      discharge_rate: {tolerance: 0.1}
+";
+
+/// Processes whose working directory lies under `dir`: a comparison's solver runs.
+fn processes_under(dir: &Path) -> Vec<(u32, PathBuf)> {
+    let mut found = Vec::new();
+    for entry in std::fs::read_dir("/proc").unwrap().flatten() {
+        let Ok(pid) = entry.file_name().to_string_lossy().parse::<u32>() else {
+            continue;
+        };
+        let zombie = std::fs::read_to_string(entry.path().join("stat"))
+            .map(|stat| stat.contains(") Z "))
+            .unwrap_or(true);
+        if let Ok(cwd) = std::fs::read_link(entry.path().join("cwd")) {
+            if cwd.starts_with(dir) && !zombie {
+                found.push((pid, cwd));
+            }
+        }
+    }
+    found
+}
+
+/// `orch compare` runs its solvers through the executor: a run past `--time-limit` is
+/// stopped (its process group with it) and counts as a failed run, and Ctrl-C stops
+/// every run, exits 130 and records no comparison.
+#[test]
+fn compare_runs_are_stopped_past_their_time_limit_and_on_ctrl_c() {
+    if !require_liggghts() {
+        return;
+    }
+    let _lock = solver_lock();
+    let project = Project::new();
+    let suite = project.write("suite.yaml", SMALL_SUITE);
+    let suite = suite.to_str().unwrap();
+    let runs = project.project_dir().join("runs/compare");
+
+    let output = project.run(&["compare", suite, "--time-limit", "1s"]);
+    let stdout = text(&output.stdout);
+    assert_eq!(
+        output.status.code(),
+        Some(1),
+        "{stdout}\n{}",
+        text(&output.stderr)
+    );
+    assert!(stdout.contains("ran past the time limit of 1s"), "{stdout}");
+    assert!(
+        processes_under(&runs).is_empty(),
+        "{:?}",
+        processes_under(&runs)
+    );
+
+    let orch = project
+        .orch(&["compare", suite])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let deadline = Instant::now() + Duration::from_secs(60);
+    while processes_under(&runs).is_empty() {
+        assert!(Instant::now() < deadline, "no solver started in 60 s");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let kill = std::process::Command::new("kill")
+        .args(["-INT", &orch.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(kill.success());
+    let output = orch.wait_with_output().unwrap();
+    let stderr = text(&output.stderr);
+    assert_eq!(output.status.code(), Some(130), "{stderr}");
+    assert!(stderr.contains("orch compare: interrupted"), "{stderr}");
+    assert!(
+        processes_under(&runs).is_empty(),
+        "{:?}",
+        processes_under(&runs)
+    );
+    // Only the first comparison was recorded; the interrupted one compared nothing.
+    let rows = project.query("SELECT COUNT(*) FROM comparisons");
+    assert_eq!(rows[0][0], "1", "{rows:?}");
 }

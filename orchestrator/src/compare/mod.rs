@@ -3,8 +3,9 @@
 //!
 //! Each case × seed × solver is rendered through the simulation seam
 //! ([`EquipmentOnSolver`]: the same parameters, the same seed, each solver's own
-//! template), run as an ordinary local process (at most [`RunOptions::parallel`] at
-//! once, one core each), and read with `results`. Then, per case and response,
+//! template), run through the executor as a study's jobs are ([`runner`]: its own
+//! process group, at most [`RunOptions::parallel`] at once, one core each, a time
+//! limit, Ctrl-C), and read with `results`. Then, per case and response,
 //! [`analysis::compare_case`] gives means, standard errors, the relative difference
 //! with Welch's interval and a verdict (the rule is in [`analysis`]); per case and
 //! solver the mean throughput of the solver's loop (particle-steps/s). Runs that share
@@ -20,18 +21,20 @@
 
 pub mod analysis;
 pub mod history;
+mod runner;
 pub mod suite;
 
 use std::collections::{BTreeMap, HashMap};
 use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
-use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::Mutex;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use orch_adapters::simulation::SOLVER_THROUGHPUT;
-use orch_adapters::{equipment_for, liggghts, DemSolver, EquipmentOnSolver, Simulation};
+use orch_adapters::{liggghts, DemSolver};
+use tokio::sync::watch;
+
+use crate::executor::Executor;
 
 pub use analysis::{ResponseComparison, Throughput, Verdict};
 pub use suite::{Suite, SuiteCase, SuiteError};
@@ -50,6 +53,8 @@ pub struct RunOptions {
     pub perturbation: BTreeMap<String, f64>,
     /// Runs at once.
     pub parallel: usize,
+    /// A run still going after this long is stopped and counts as failed.
+    pub time_limit: Duration,
     /// Where the run directories go.
     pub runs_dir: PathBuf,
     /// Runs earlier comparisons made, by identity: taken instead of running again
@@ -94,6 +99,8 @@ pub struct SuiteOutcome {
     pub made: Vec<(String, analysis::RunValues)>,
     /// Runs taken from earlier comparisons instead of running.
     pub reused: usize,
+    /// Ctrl-C or SIGTERM stopped it: the runs made are kept, nothing is compared.
+    pub interrupted: bool,
 }
 
 impl SuiteOutcome {
@@ -108,8 +115,14 @@ impl SuiteOutcome {
     }
 }
 
-/// Runs the cases of `suite` that `options` selects on every solver and compares them.
-pub fn run_suite(suite: &Suite, options: &RunOptions) -> SuiteOutcome {
+/// Runs the cases of `suite` that `options` selects on every solver through `executor`
+/// and compares them; `stop` turning true (Ctrl-C, SIGTERM) stops the runs.
+pub async fn run_suite<E: Executor>(
+    suite: &Suite,
+    options: &RunOptions,
+    executor: &mut E,
+    stop: &watch::Receiver<bool>,
+) -> SuiteOutcome {
     let start = Instant::now();
     let cases = suite.selected(options.quick);
     let mut specs = Vec::new();
@@ -128,7 +141,8 @@ pub fn run_suite(suite: &Suite, options: &RunOptions) -> SuiteOutcome {
             }
         }
     }
-    let outcomes = run_all(&cases, &specs, options);
+    let ran = runner::run_all(executor, &cases, &specs, options, stop).await;
+    let outcomes = ran.outcomes;
     let mut failures = Vec::new();
     let mut made = Vec::new();
     let mut reused = 0;
@@ -208,120 +222,8 @@ pub fn run_suite(suite: &Suite, options: &RunOptions) -> SuiteOutcome {
         wall_time_s: start.elapsed().as_secs_f64(),
         made,
         reused,
+        interrupted: ran.interrupted,
     }
-}
-
-/// Runs every spec, `options.parallel` at a time, in order of the list.
-fn run_all(cases: &[&SuiteCase], specs: &[RunSpec], options: &RunOptions) -> Vec<RunOutcome> {
-    let next = AtomicUsize::new(0);
-    let outcomes: Mutex<Vec<Option<RunOutcome>>> = Mutex::new(vec![None; specs.len()]);
-    std::thread::scope(|scope| {
-        for _ in 0..options.parallel.max(1) {
-            scope.spawn(|| loop {
-                let index = next.fetch_add(1, Ordering::SeqCst);
-                let Some(spec) = specs.get(index) else { break };
-                let case = cases[spec.case];
-                let perturbation = if spec.solver.name == NATIVE {
-                    options.perturbation.clone()
-                } else {
-                    BTreeMap::new()
-                };
-                let outcome = run_one(case, spec, &perturbation, &options.known);
-                tracing::info!(
-                    case = %case.name, solver = spec.solver.name, seed = spec.seed,
-                    ok = outcome.is_ok(), "compare run finished"
-                );
-                outcomes.lock().expect("no panics while held")[index] = Some(outcome);
-            });
-        }
-    });
-    outcomes
-        .into_inner()
-        .expect("no panics while held")
-        .into_iter()
-        .map(|o| o.expect("every run ran"))
-        .collect()
-}
-
-/// Renders one run and takes its values from `known` when the project already made
-/// it, else runs and reads it.
-fn run_one(
-    case: &SuiteCase,
-    spec: &RunSpec,
-    perturbation: &BTreeMap<String, f64>,
-    known: &HashMap<String, analysis::RunValues>,
-) -> RunOutcome {
-    let equipment = equipment_for(&case.equipment).expect("checked when loaded");
-    let simulation = EquipmentOnSolver::new(equipment, spec.solver).ok_or_else(|| {
-        format!(
-            "{} has no template for {}",
-            spec.solver.name, case.equipment
-        )
-    })?;
-    let parameters = case.case(spec.seed, perturbation);
-    if spec.dir.exists() {
-        std::fs::remove_dir_all(&spec.dir)
-            .map_err(|e| format!("cannot clear the run directory: {e}"))?;
-    }
-    std::fs::create_dir_all(&spec.dir)
-        .map_err(|e| format!("cannot create the run directory: {e}"))?;
-    simulation
-        .render(&parameters, &spec.dir)
-        .map_err(|e| format!("cannot render: {e}"))?;
-    let command = simulation.command();
-    let identity = crate::identity::of_run(&spec.dir, &command, "")
-        .map_err(|e| format!("cannot read the rendered run: {e}"))?;
-    if let Some(values) = known.get(&identity) {
-        // A reused run brings what it measured of the flow, not its speed: speed is of
-        // the moment and the machine it ran on, and the native/reference ratio must
-        // compare runs that shared one machine at one time.
-        let mut values = values.clone();
-        values.retain(|name, _| !name.starts_with("solver_"));
-        return Ok(Made {
-            values,
-            identity,
-            reused: true,
-        });
-    }
-    let file = |name: &str| {
-        std::fs::File::create(spec.dir.join(name)).map_err(|e| format!("cannot create {name}: {e}"))
-    };
-    let status = Command::new(&command.program)
-        .args(&command.args)
-        .envs(&command.env)
-        .current_dir(&spec.dir)
-        .stdin(Stdio::null())
-        .stdout(file("stdout")?)
-        .stderr(file("stderr")?)
-        .status()
-        .map_err(|e| {
-            format!(
-                "cannot start `{}` ({e}); {}",
-                command.program,
-                simulation.install_hint()
-            )
-        })?;
-    if !status.success() {
-        return Err(format!(
-            "the solver failed ({status}); see {}",
-            spec.dir.join(&command.log_file).display()
-        ));
-    }
-    let results = simulation
-        .results(&parameters, &spec.dir)
-        .map_err(|e| e.to_string())?;
-    let mut values: analysis::RunValues = results.responses.into_iter().collect();
-    for (name, why) in results.missing {
-        if case.responses.contains_key(&name) {
-            return Err(format!("no {name}: {why}"));
-        }
-        values.remove(&name);
-    }
-    Ok(Made {
-        values,
-        identity,
-        reused: false,
-    })
 }
 
 /// The version of `solver`: orch's for the native kernel, the first log line's for

@@ -19,13 +19,17 @@
 
 use std::collections::{HashMap, HashSet};
 
-use crate::store::{JobLink, JobState, DESIGN_STAGE};
+use crate::store::{JobKind, JobLink, JobState};
 
 /// True for the jobs that run the DEM: design jobs and jobs of a stage that runs the
 /// design again.
 fn runs_dem(job: &impl JobLink) -> bool {
-    job.stage() == DESIGN_STAGE
-        || orch_adapters::stage_for(job.stage()).is_some_and(|stage| stage.reruns_design())
+    match job.kind() {
+        JobKind::Design => true,
+        JobKind::Stage(kind) => {
+            orch_adapters::stage_for(kind).is_some_and(|stage| stage.reruns_design())
+        }
+    }
 }
 
 /// Succeeded jobs that a later job of the same chain replaces: a DEM run followed (two
@@ -41,7 +45,7 @@ pub fn superseded<J: JobLink>(jobs: &[J]) -> HashSet<i64> {
             let same_kind = if runs_dem(later) {
                 runs_dem(earlier)
             } else {
-                earlier.stage() == later.stage()
+                earlier.kind() == later.kind()
             };
             (same_kind && earlier.state() == JobState::Succeeded).then_some(earlier.id())
         })
@@ -70,7 +74,7 @@ mod tests {
             exit_code: None,
             error: None,
             scheduler_state: None,
-            stage: stage.to_string(),
+            kind: JobKind::parse(stage).unwrap(),
             after_job_id: after,
             identity: None,
             reused_from: None,
@@ -99,7 +103,7 @@ mod tests {
                 point_id: j.point_id,
                 name: j.name.as_str().into(),
                 state: j.state,
-                stage: j.stage.as_str().into(),
+                kind: j.kind,
                 after_job_id: j.after_job_id,
                 identity: None,
             })

@@ -476,7 +476,7 @@ impl RunRows {
         let values = self.page.responses.get(&job.id).unwrap_or(&empty);
         let mut cells = vec![
             Cell::Text(job.name.clone()),
-            Cell::Text(job.stage.clone()),
+            Cell::Text(job.kind.as_str().to_string()),
             Cell::Int(point.round),
             Cell::Text(point.purpose.clone()),
             Cell::Int(point.idx),

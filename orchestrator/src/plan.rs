@@ -25,6 +25,48 @@ use crate::study::{Coupling, DesignPoint, Study};
 /// `jobs.stage` of a design job: the simulation of a design point itself.
 pub const DESIGN_STAGE: &str = "dem";
 
+/// What a job runs: the design point's simulation, or a stage after another job. It is
+/// `jobs.stage` decoded, as states are: a kind this orch does not know is an
+/// [`crate::store::UnknownState`] naming the row, never taken for a design job.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum JobKind {
+    /// The design point's own simulation ([`DESIGN_STAGE`] in the store).
+    Design,
+    /// A stage of this kind ([`orch_adapters::STAGES`], or a user's `script`).
+    Stage(&'static str),
+}
+
+impl JobKind {
+    /// The text `jobs.stage` holds.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            JobKind::Design => DESIGN_STAGE,
+            JobKind::Stage(kind) => kind,
+        }
+    }
+
+    /// The stage kind, `None` for a design job.
+    pub fn stage(self) -> Option<&'static str> {
+        match self {
+            JobKind::Design => None,
+            JobKind::Stage(kind) => Some(kind),
+        }
+    }
+
+    /// The kind `text` names, or `None` when this orch knows no such kind.
+    pub fn parse(text: &str) -> Option<JobKind> {
+        if text == DESIGN_STAGE {
+            return Some(JobKind::Design);
+        }
+        orch_adapters::STAGES
+            .iter()
+            .map(|stage| stage.kind())
+            .chain([orch_adapters::script_stage::KIND])
+            .find(|kind| *kind == text)
+            .map(JobKind::Stage)
+    }
+}
+
 /// Whether points are fitted or held out to test the fit.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum PointPurpose {
@@ -87,8 +129,8 @@ pub struct PlannedJob {
     pub replicate: u32,
     /// The solver seed (63 bits).
     pub seed: u64,
-    /// [`DESIGN_STAGE`] or the kind of stage it is.
-    pub stage: &'static str,
+    /// A design job, or a stage's of this kind.
+    pub kind: JobKind,
     /// The job of the same point it waits for, as an index into [`PlannedPoint::jobs`].
     pub after: Option<usize>,
 }
@@ -165,7 +207,7 @@ pub fn plan_points<'a>(
                 name: name.clone(),
                 replicate,
                 seed: job_seed(study.seed, &key),
-                stage: DESIGN_STAGE,
+                kind: JobKind::Design,
                 after: None,
             });
             // Stages follow the design job; a coupling chain follows its first job of
@@ -183,7 +225,7 @@ pub fn plan_points<'a>(
                             ..key
                         },
                     ),
-                    stage: kind,
+                    kind: JobKind::Stage(kind),
                     after: Some(design_job),
                 });
                 if coupled.is_some_and(|c| c.feeder.stage.kind() == kind) {
@@ -204,7 +246,7 @@ pub fn plan_points<'a>(
                         name: chained,
                         replicate,
                         seed: job_seed(study.seed, &SeedKey { stream, ..key }),
-                        stage: stage.kind(),
+                        kind: JobKind::Stage(stage.kind()),
                         after: Some(chain_tail.unwrap_or(design_job)),
                     });
                     chain_tail = Some(jobs.len() - 1);
@@ -397,7 +439,7 @@ mod tests {
         let jobs = &planned[0].jobs;
         let chain: Vec<(&str, &str, Option<usize>)> = jobs
             .iter()
-            .map(|j| (j.name.as_str(), j.stage, j.after))
+            .map(|j| (j.name.as_str(), j.kind.as_str(), j.after))
             .collect();
         assert_eq!(
             chain,

@@ -155,7 +155,7 @@ mod tests {
             exit_code: None,
             error: None,
             scheduler_state: None,
-            stage: crate::store::DESIGN_STAGE.into(),
+            kind: crate::store::JobKind::Design,
             after_job_id: None,
             identity: None,
             reused_from: None,

@@ -1674,7 +1674,7 @@ mod tests {
                 exit_code: Some(i64::from(id == 2)),
                 error: (id == 2).then(|| "exit \"1\"\nsee log".into()),
                 scheduler_state: None,
-                stage: "dem".into(),
+                kind: crate::store::JobKind::Design,
                 after_job_id: None,
                 identity: None,
                 reused_from: None,

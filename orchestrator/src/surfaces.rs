@@ -539,7 +539,7 @@ mod tests {
             point_id,
             name: format!("j{id}").into(),
             state: JobState::Succeeded,
-            stage: crate::store::DESIGN_STAGE.into(),
+            kind: crate::store::JobKind::Design,
             after_job_id: None,
             identity: identity.map(Into::into),
         };

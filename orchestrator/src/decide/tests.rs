@@ -6,7 +6,7 @@ use std::time::Duration;
 use proptest::prelude::*;
 
 use super::*;
-use crate::store::DESIGN_STAGE;
+use crate::store::JobKind;
 
 const NOW: f64 = 1_000_000.0;
 
@@ -29,7 +29,7 @@ fn job(id: i64, state: JobState) -> JobRow {
         exit_code: None,
         error: None,
         scheduler_state: None,
-        stage: DESIGN_STAGE.to_string(),
+        kind: JobKind::Design,
         after_job_id: None,
         identity: None,
         reused_from: None,
@@ -40,7 +40,7 @@ fn job(id: i64, state: JobState) -> JobRow {
 fn stage(id: i64, state: JobState, upstream: i64) -> JobRow {
     JobRow {
         name: format!("p{upstream:03}r0-cfd"),
-        stage: "cfd".to_string(),
+        kind: JobKind::Stage("cfd"),
         after_job_id: Some(upstream),
         ..job(id, state)
     }
@@ -134,7 +134,7 @@ fn no_job_is_launched_when_every_slot_is_held_or_over_held() {
 
 /// Design jobs on 2 cores each, `cfd` stage jobs on 1.
 fn two_core_design_jobs(job: &JobRow) -> usize {
-    if job.stage == DESIGN_STAGE {
+    if job.kind == JobKind::Design {
         2
     } else {
         1

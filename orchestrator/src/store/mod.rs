@@ -33,8 +33,8 @@ pub use rounds::{
     StoredRound,
 };
 pub use rows::{
-    Decision, FactorRow, JobLink, JobLinkRow, JobRow, JobState, PointRow, ResponseValues, StudyRow,
-    StudyState, UnknownState, DESIGN_STAGE,
+    Decision, FactorRow, JobKind, JobLink, JobLinkRow, JobRow, JobState, PointRow, ResponseValues,
+    StudyRow, StudyState, UnknownState, DESIGN_STAGE,
 };
 pub use series::{SeriesPages, SeriesPoint};
 
@@ -1323,7 +1323,7 @@ pub(crate) async fn insert_planned(
             .bind(&job.name)
             .bind(job.seed as i64)
             .bind(runs_dir.join(&job.name).display().to_string())
-            .bind(job.stage)
+            .bind(job.kind.as_str())
             .bind(after)
             .fetch_one(&mut *tx)
             .await

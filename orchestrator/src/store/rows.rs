@@ -15,10 +15,12 @@ use sqlx::{Decode, Encode, Row, Sqlite, Type};
 
 /// A state column holds a value this orch does not know.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("{table} row {id} has state `{value}`, which this orch does not know; the database was written by another version or damaged: use the orch that wrote it, or restore {} from a backup", super::DATABASE_FILE)]
+#[error("{table} row {id} has {column} `{value}`, which this orch does not know; the database was written by another version or damaged: use the orch that wrote it, or restore {} from a backup", super::DATABASE_FILE)]
 pub struct UnknownState {
     /// The table (`jobs`, `studies`).
     pub table: &'static str,
+    /// The column (`state`, or `stage`: a job's kind).
+    pub column: &'static str,
     /// The row's id.
     pub id: i64,
     /// The stored text.
@@ -64,9 +66,27 @@ text_state!(Decision);
 /// value this orch does not know.
 fn state_of<S: FromStr>(row: &SqliteRow, table: &'static str, id: i64) -> sqlx::Result<S> {
     let value: String = row.try_get("state")?;
-    value
-        .parse()
-        .map_err(|_| sqlx::Error::Decode(Box::new(UnknownState { table, id, value })))
+    value.parse().map_err(|_| {
+        sqlx::Error::Decode(Box::new(UnknownState {
+            table,
+            column: "state",
+            id,
+            value,
+        }))
+    })
+}
+
+/// The kind of job `id`, decoded from its `stage` column.
+fn kind_of(row: &SqliteRow, id: i64) -> sqlx::Result<JobKind> {
+    let value: String = row.try_get("stage")?;
+    JobKind::parse(&value).ok_or_else(|| {
+        sqlx::Error::Decode(Box::new(UnknownState {
+            table: "jobs",
+            column: "stage",
+            id,
+            value,
+        }))
+    })
 }
 
 /// Parses a state read on its own (`SELECT state …`), naming its row when unknown.
@@ -75,7 +95,12 @@ pub(crate) fn parse_state<S: FromStr>(
     id: i64,
     value: String,
 ) -> Result<S, UnknownState> {
-    value.parse().map_err(|_| UnknownState { table, id, value })
+    value.parse().map_err(|_| UnknownState {
+        table,
+        column: "state",
+        id,
+        value,
+    })
 }
 
 /// The life of a job: pending → rendered → (submitted →) running → succeeded | failed |
@@ -353,9 +378,10 @@ pub struct JobRow {
     /// What a batch scheduler last said about the current attempt ("PENDING
     /// (Priority)", "RUNNING on n1"); none for local jobs.
     pub scheduler_state: Option<String>,
-    /// [`DESIGN_STAGE`] for a design job, else the kind of the stage
+    /// A design job, or a stage job and its kind (`jobs.stage`: [`DESIGN_STAGE`] or the
+    /// kind), decoded when the row is read.
     /// ([`orch_adapters::Stage::kind`]) chained after the job `after_job_id`.
-    pub stage: String,
+    pub kind: JobKind,
     /// The job this one waits for and reads its inputs from (stages).
     pub after_job_id: Option<i64>,
     /// The run's identity ([`crate::identity`]), once rendered; none for jobs of
@@ -365,12 +391,12 @@ pub struct JobRow {
     pub reused_from: Option<String>,
 }
 
-pub use crate::plan::DESIGN_STAGE;
+pub use crate::plan::{JobKind, DESIGN_STAGE};
 
 impl JobRow {
     /// The kind of stage this job is, or `None` for a design job.
-    pub fn stage_kind(&self) -> Option<&str> {
-        (self.stage != DESIGN_STAGE).then_some(self.stage.as_str())
+    pub fn stage_kind(&self) -> Option<&'static str> {
+        self.kind.stage()
     }
 
     /// The state.
@@ -398,7 +424,7 @@ impl<'r> sqlx::FromRow<'r, SqliteRow> for JobRow {
             exit_code: row.try_get("exit_code")?,
             error: row.try_get("error")?,
             scheduler_state: row.try_get("scheduler_state")?,
-            stage: row.try_get("stage")?,
+            kind: kind_of(row, id)?,
             after_job_id: row.try_get("after_job_id")?,
             identity: row.try_get("identity")?,
             reused_from: row.try_get("reused_from")?,
@@ -419,8 +445,8 @@ pub trait JobLink {
     fn name(&self) -> &str;
     /// State.
     fn state(&self) -> JobState;
-    /// [`DESIGN_STAGE`] or the kind of the stage chained after [`JobLink::after_job_id`].
-    fn stage(&self) -> &str;
+    /// A design job, or the kind of the stage chained after [`JobLink::after_job_id`].
+    fn kind(&self) -> JobKind;
     /// The job this one follows in its chain.
     fn after_job_id(&self) -> Option<i64>;
     /// The run's identity: jobs that share one are one observation.
@@ -443,8 +469,8 @@ macro_rules! job_link_from_fields {
             fn state(&self) -> JobState {
                 self.state
             }
-            fn stage(&self) -> &str {
-                &self.stage
+            fn kind(&self) -> JobKind {
+                self.kind
             }
             fn after_job_id(&self) -> Option<i64> {
                 self.after_job_id
@@ -472,8 +498,8 @@ pub struct JobLinkRow {
     pub name: Box<str>,
     /// State.
     pub state: JobState,
-    /// [`DESIGN_STAGE`] or a stage kind.
-    pub stage: Box<str>,
+    /// A design job, or a stage's and its kind.
+    pub kind: JobKind,
     /// The job this one follows.
     pub after_job_id: Option<i64>,
     /// The run's identity.
@@ -493,7 +519,7 @@ impl<'r> sqlx::FromRow<'r, SqliteRow> for JobLinkRow {
             point_id: row.try_get("point_id")?,
             name: row.try_get::<String, _>("name")?.into_boxed_str(),
             state: state_of(row, "jobs", id)?,
-            stage: row.try_get::<String, _>("stage")?.into_boxed_str(),
+            kind: kind_of(row, id)?,
             after_job_id: row.try_get("after_job_id")?,
             identity: row
                 .try_get::<Option<String>, _>("identity")?

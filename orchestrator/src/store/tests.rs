@@ -346,8 +346,10 @@ async fn states_are_written_as_the_text_they_are_read_from() {
     }
 }
 
-/// A stage kind is whatever the registry of stages names: the store takes a kind it
-/// has not seen before (no migration per kind), and still refuses an empty one.
+/// A stage kind is whatever the registry of stages names: the store takes a kind added
+/// after its last migration (`script`) with no migration of its own, refuses an empty
+/// one, and reads a kind this orch does not know as an error naming the row, never as
+/// a design job.
 #[tokio::test]
 async fn a_job_of_a_new_stage_kind_is_stored_without_a_migration() {
     let (_dir, store, id) = store_with_study().await;
@@ -364,12 +366,29 @@ async fn a_job_of_a_new_stage_kind_is_stored_without_a_migration() {
         .bind(design.id)
         .execute(&store.pool)
     };
-    insert("post", "p000r0-post").await.unwrap();
+    insert("script", "p000r0-post").await.unwrap();
     assert!(insert("", "p000r0-empty").await.is_err());
     let jobs = store.jobs(id).await.unwrap();
     let post = jobs.iter().find(|j| j.name == "p000r0-post").unwrap();
-    assert_eq!(post.stage_kind(), Some("post"));
+    assert_eq!(post.stage_kind(), Some("script"));
+    assert_eq!(post.kind, crate::store::JobKind::Stage("script"));
     assert_eq!(post.after_job_id, Some(design.id));
+    let unknown = insert("dpm", "p000r0-dpm")
+        .await
+        .unwrap()
+        .last_insert_rowid();
+    let error = store.jobs(id).await.unwrap_err().to_string();
+    assert!(
+        error.contains(&format!(
+            "jobs row {unknown} has stage `dpm`, which this orch does not know"
+        )),
+        "{error}"
+    );
+    sqlx::query("DELETE FROM jobs WHERE id = ?")
+        .bind(unknown)
+        .execute(&store.pool)
+        .await
+        .unwrap();
     // Deleting the design job still deletes the stage that follows it.
     sqlx::query("DELETE FROM jobs WHERE id = ?")
         .bind(design.id)
@@ -484,7 +503,7 @@ async fn a_tick_reads_the_open_jobs_and_only_the_first_pending_ones_it_could_act
     let stage_after = |upstream: &JobRow, name: &'static str| {
         sqlx::query(
             "INSERT INTO jobs (study_id, point_id, replicate, name, seed, state, run_dir, stage, after_job_id)
-             VALUES (?, ?, 0, ?, 1, 'pending', 'runs/x', 'post', ?) RETURNING id",
+             VALUES (?, ?, 0, ?, 1, 'pending', 'runs/x', 'cfd', ?) RETURNING id",
         )
         .bind(id)
         .bind(upstream.point_id)
@@ -492,8 +511,8 @@ async fn a_tick_reads_the_open_jobs_and_only_the_first_pending_ones_it_could_act
         .bind(upstream.id)
         .fetch_one(&store.pool)
     };
-    let waiting: i64 = stage_after(&jobs[0], "p000r0-post").await.unwrap().get(0);
-    let ready: i64 = stage_after(&jobs[1], "p000r1-post").await.unwrap().get(0);
+    let waiting: i64 = stage_after(&jobs[0], "p000r0-cfd").await.unwrap().get(0);
+    let ready: i64 = stage_after(&jobs[1], "p000r1-cfd").await.unwrap().get(0);
     let ids = |listed: Vec<JobRow>| listed.iter().map(|j| j.id).collect::<Vec<_>>();
 
     let first = ids(store.unfinished_jobs(id, 2).await.unwrap());
@@ -727,7 +746,7 @@ async fn a_study_s_job_links_are_its_jobs_link_fields() {
                 l.point_id(),
                 l.name(),
                 l.state(),
-                l.stage(),
+                l.kind(),
                 l.after_job_id()
             ),
             (
@@ -735,7 +754,7 @@ async fn a_study_s_job_links_are_its_jobs_link_fields() {
                 w.point_id,
                 w.name.as_str(),
                 w.state,
-                w.stage.as_str(),
+                w.kind,
                 w.after_job_id
             )
         );

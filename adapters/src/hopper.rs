@@ -591,6 +591,8 @@ pub fn context(case: &Case) -> Context {
     }
     context.insert("air", &(case.get("air_density") > 0.0));
     context.insert("air_field", &(case.get("air_field") > 0.5));
+    // The YADE script writes the crossings table the native kernel writes.
+    context.insert("crossings_header", orch_granular::crossing_csv::HEADER);
     let chunk = 1000u64;
     context.insert("chunk_steps", &chunk);
     context.insert(

@@ -96,29 +96,15 @@ pub fn write_vtk_legacy(
     Ok(())
 }
 
-/// Header of the crossings CSV.
-pub const CROSSINGS_HEADER: &str =
-    "time_s,id,type,radius_m,mass_kg,x_m,y_m,z_m,vx_m_s,vy_m_s,vz_m_s";
+/// Header of the crossings CSV ([`orch_granular::crossing_csv`] owns the format).
+pub use orch_granular::crossing_csv::HEADER as CROSSINGS_HEADER;
 
-/// Appends crossings as CSV rows (types numbered from 1).
+/// Appends crossings as rows of the crossings table ([`orch_granular::crossing_csv`]).
 pub fn write_crossings(out: &mut impl Write, crossings: &[Crossing]) -> io::Result<()> {
-    for c in crossings {
-        let (x, v) = (c.position_m, c.velocity_m_s);
-        writeln!(
-            out,
-            "{:e},{},{},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{:e}",
-            c.time_s,
-            c.id,
-            c.kind + 1,
-            c.radius_m,
-            c.mass_kg,
-            x.x,
-            x.y,
-            x.z,
-            v.x,
-            v.y,
-            v.z
-        )?;
+    let mut rows = String::new();
+    for crossing in crossings {
+        orch_granular::crossing_csv::write_row(&mut rows, crossing)
+            .expect("writing to a String cannot fail");
     }
-    Ok(())
+    out.write_all(rows.as_bytes())
 }

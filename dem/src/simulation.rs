@@ -75,24 +75,10 @@ pub struct Config {
     pub air_field: Option<AirField>,
 }
 
-/// A particle crossing the sensor plane downwards.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Crossing {
-    /// Time of the crossing, s.
-    pub time_s: Real,
-    /// Particle id.
-    pub id: u32,
-    /// Particle type index.
-    pub kind: u16,
-    /// Radius, m.
-    pub radius_m: Real,
-    /// Mass, kg.
-    pub mass_kg: Real,
-    /// Centre where it crossed, m.
-    pub position_m: Vec3,
-    /// Velocity at the end of the step it crossed in, m/s.
-    pub velocity_m_s: Vec3,
-}
+/// A particle crossing the sensor plane downwards, as every solver's crossings are
+/// read ([`orch_granular::Crossing`]): its type numbered from 1, the velocity that at
+/// the end of the step it crossed in.
+pub use orch_granular::Crossing;
 
 /// Why a run stopped: it went unstable at a given step.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -592,16 +578,17 @@ impl Simulation {
                         let z_before = x.z - dt * v.z;
                         if !crossed[i] && z_before > plane && x.z <= plane {
                             let fraction = (z_before - plane) / (z_before - x.z);
+                            let at = *x - (1.0 - fraction) * dt * *v;
                             outcome.crossings.push((
                                 i,
                                 Crossing {
                                     time_s: time + fraction * dt,
-                                    id: id[i],
-                                    kind: kind[i],
+                                    id: u64::from(id[i]),
+                                    particle_type: u32::from(kind[i]) + 1,
                                     radius_m: radius_m[i],
                                     mass_kg: mass_kg[i],
-                                    position_m: *x - (1.0 - fraction) * dt * *v,
-                                    velocity_m_s: *v,
+                                    position_m: [at.x, at.y, at.z],
+                                    velocity_m_per_s: [v.x, v.y, v.z],
                                 },
                             ));
                         }

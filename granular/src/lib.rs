@@ -1,7 +1,7 @@
 //! Hopper geometry and granular-flow responses for `orch`.
 //!
-//! Pure: this crate owns two formats (ASCII STL it writes into a `String`, and nothing
-//! else) and never touches files, processes or databases. Units are SI throughout:
+//! Pure: this crate owns two formats (ASCII STL it writes into a `String`, and the
+//! crossings table, [`crossing_csv`]) and never touches files, processes or databases. Units are SI throughout:
 //! metres, seconds, kilograms; angles in degrees only where a name says `_deg`.
 //!
 //! - [`geometry`]: the conical hopper, its outlet plug, an internal valve and sensor
@@ -12,7 +12,7 @@
 //! - [`bed`]: radial size segregation of a settled bed (poured or placed at random).
 //! - [`air`]: the drag of a falling particle stream on the air, for the CFD stage.
 //! - [`crossing`]: turns particle sightings near a sensor plane into one crossing per
-//!   particle, with interpolated time and position.
+//!   particle, with interpolated time and position; [`crossing_csv`] their table.
 //! - [`responses`]: discharge rate, radial segregation and fine fraction in the outer
 //!   layers of the stream (SCIENCE.md §4), and the reference formulas.
 //! - [`steady`]: the steady window of a discharge, its rate and 95 % interval.
@@ -23,6 +23,7 @@ pub mod air;
 pub mod bed;
 pub mod chute;
 pub mod crossing;
+pub mod crossing_csv;
 pub mod geometry;
 pub mod mesh;
 pub mod profile;

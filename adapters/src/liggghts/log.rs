@@ -40,16 +40,15 @@ pub fn read_log<R: BufRead>(reader: R, path: &Path) -> Result<LogSummary, ParseE
         let (number, line) = numbered?;
         let trimmed = line.trim();
         if let Some(rest) = trimmed.strip_prefix("Loop time of ") {
-            summary.loop_time_s += parse_loop_line(rest)
-                .ok_or_else(|| {
-                    ParseError::malformed(
-                        path,
-                        number,
-                        format!("cannot read the loop line `{trimmed}`"),
-                    )
-                })?
-                .0;
-            summary.steps += parse_loop_line(rest).map(|l| l.1).unwrap_or(0);
+            let line = LoopLine::parse_after_prefix(rest).ok_or_else(|| {
+                ParseError::malformed(
+                    path,
+                    number,
+                    format!("cannot read the loop line `{trimmed}`"),
+                )
+            })?;
+            summary.loop_time_s += line.seconds;
+            summary.steps += line.steps;
             columns = None;
             previous_row = None;
         } else if trimmed.starts_with("ERROR") {
@@ -81,17 +80,76 @@ pub fn read_log<R: BufRead>(reader: R, path: &Path) -> Result<LogSummary, ParseE
     Ok(summary)
 }
 
-/// `(seconds, steps)` from the text after `Loop time of `.
-fn parse_loop_line(rest: &str) -> Option<(f64, u64)> {
-    let mut words = rest.split_whitespace();
-    let seconds = words.next()?.parse().ok()?;
-    let steps = words.skip_while(|w| *w != "for").nth(1)?.parse().ok()?;
-    Some((seconds, steps))
+/// One `Loop time of <s> on <procs> procs for <steps> steps with <atoms> atoms` line of
+/// LIGGGHTS (which goes on `, finish time …`) or LAMMPS: the one reader of it, for the
+/// adapter and for `orch-dem bench`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LoopLine {
+    /// Wall time of the run's time loop, s.
+    pub seconds: f64,
+    /// MPI ranks.
+    pub procs: u32,
+    /// Steps of the run.
+    pub steps: u64,
+    /// Atoms at the end of the run.
+    pub atoms: u64,
+}
+
+impl LoopLine {
+    /// The line parsed from the text after `Loop time of `, or `None`.
+    pub fn parse_after_prefix(rest: &str) -> Option<LoopLine> {
+        let words: Vec<&str> = rest.split_whitespace().collect();
+        match words.as_slice() {
+            [seconds, "on", procs, "procs", "for", steps, "steps", "with", atoms, unit, ..]
+                if unit.trim_end_matches(',') == "atoms" =>
+            {
+                Some(LoopLine {
+                    seconds: seconds.parse().ok()?,
+                    procs: procs.parse().ok()?,
+                    steps: steps.parse().ok()?,
+                    atoms: atoms.parse().ok()?,
+                })
+            }
+            _ => None,
+        }
+    }
+
+    /// Every loop line of a whole log, in order.
+    pub fn all_in(log: &str) -> Vec<LoopLine> {
+        log.lines()
+            .filter_map(|line| Self::parse_after_prefix(line.trim().strip_prefix("Loop time of ")?))
+            .collect()
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn loop_lines_of_liggghts_and_lammps_are_read() {
+        let log = "Step Atoms KinEng CPU\n0 3000 0 0\nLoop time of 12.5 on 2 procs for 10000 steps with 2998 atoms\n\nPerformance: 1 tau/day\nLoop time of 0.25 on 1 procs for 100 steps with 3000 atoms, finish time Tue Dec  1 23:18:01 2026\n";
+        assert_eq!(
+            LoopLine::all_in(log),
+            [
+                LoopLine {
+                    seconds: 12.5,
+                    procs: 2,
+                    steps: 10000,
+                    atoms: 2998
+                },
+                LoopLine {
+                    seconds: 0.25,
+                    procs: 1,
+                    steps: 100,
+                    atoms: 3000
+                },
+            ]
+        );
+        assert!(
+            LoopLine::all_in("Loop time of x on 1 procs for 1 steps with 1 atoms\n").is_empty()
+        );
+    }
 
     #[test]
     fn the_shared_liggghts_log_sums_both_runs() {

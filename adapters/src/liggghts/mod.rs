@@ -20,7 +20,7 @@ use std::path::Path;
 use orch_granular::CrossingDetector;
 
 pub use grid::{decompose, processor_grid};
-pub use log::{read_log, LogSummary};
+pub use log::{read_log, LogSummary, LoopLine};
 
 use crate::dump::read_dump;
 use crate::solver::{solver_command, SolverTemplate};

@@ -29,6 +29,64 @@ pub struct NativeLog {
 /// The thermo table's header.
 pub const THERMO_HEADER: &str = "step time_s particles kinetic_energy_J discharged_mass_kg";
 
+/// The log's `Loop time of <s> s on <n> threads for <steps> steps with <p>
+/// particle-steps (<rate> particle-steps/s)` line: the kernel writes it, `orch` and
+/// `orch-dem bench` read it, all through this type.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LoopLine {
+    /// Wall time of the time loop, s.
+    pub seconds: f64,
+    /// Threads the loop ran on.
+    pub threads: usize,
+    /// Steps taken.
+    pub steps: u64,
+    /// Σ particles × steps.
+    pub particle_steps: f64,
+}
+
+impl LoopLine {
+    /// Particle-steps per second of loop time.
+    pub fn throughput(&self) -> f64 {
+        self.particle_steps / self.seconds.max(1e-12)
+    }
+
+    /// The line parsed from the text after `Loop time of `, or `None`.
+    pub fn parse_after_prefix(rest: &str) -> Option<LoopLine> {
+        let words: Vec<&str> = rest.split_whitespace().collect();
+        match words.as_slice() {
+            [seconds, "s", "on", threads, "threads", "for", steps, "steps", "with", particle_steps, "particle-steps", ..] => {
+                Some(LoopLine {
+                    seconds: seconds.parse().ok()?,
+                    threads: threads.parse().ok()?,
+                    steps: steps.parse().ok()?,
+                    particle_steps: particle_steps.parse().ok()?,
+                })
+            }
+            _ => None,
+        }
+    }
+
+    /// The first loop line of a whole log, or `None`.
+    pub fn find_in(log: &str) -> Option<LoopLine> {
+        log.lines()
+            .find_map(|line| Self::parse_after_prefix(line.trim().strip_prefix("Loop time of ")?))
+    }
+}
+
+impl std::fmt::Display for LoopLine {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "Loop time of {:.6} s on {} threads for {} steps with {} particle-steps ({:.4e} particle-steps/s)",
+            self.seconds,
+            self.threads,
+            self.steps,
+            self.particle_steps,
+            self.throughput()
+        )
+    }
+}
+
 /// Reads a native log; `path` names the file in errors.
 pub fn read_log<R: BufRead>(reader: R, path: &Path) -> Result<NativeLog, ParseError> {
     let malformed = |line: usize, message: String| ParseError::malformed(path, line, message);
@@ -54,23 +112,12 @@ pub fn read_log<R: BufRead>(reader: R, path: &Path) -> Result<NativeLog, ParseEr
                 })?;
             log.wall_impact_energy_j = Some(value);
         } else if let Some(rest) = trimmed.strip_prefix("Loop time of ") {
-            let words: Vec<&str> = rest.split_whitespace().collect();
-            // <s> s on <n> threads for <steps> steps with <p> particle-steps
-            let parsed = (words.len() >= 10)
-                .then(|| {
-                    Some((
-                        words[0].parse::<f64>().ok()?,
-                        words[6].parse::<u64>().ok()?,
-                        words[9].parse::<f64>().ok()?,
-                    ))
-                })
-                .flatten();
-            let (seconds, steps, particle_steps) = parsed.ok_or_else(|| {
+            let line = LoopLine::parse_after_prefix(rest).ok_or_else(|| {
                 malformed(number, format!("cannot read the loop line `{trimmed}`"))
             })?;
-            log.loop_time_s = seconds;
-            log.steps = steps;
-            log.particle_steps = particle_steps;
+            log.loop_time_s = line.seconds;
+            log.steps = line.steps;
+            log.particle_steps = line.particle_steps;
             in_table = false;
             finished = true;
         } else if in_table {

@@ -13,9 +13,9 @@ mod log;
 use std::io::BufRead;
 use std::path::Path;
 
-use orch_granular::Crossing;
+use orch_granular::{crossing_csv, Crossing};
 
-pub use log::{read_log, NativeLog, THERMO_HEADER};
+pub use log::{read_log, LoopLine, NativeLog, THERMO_HEADER};
 
 use crate::solver::{deck_as_rendered, solver_command, SolverTemplate};
 use crate::{
@@ -53,9 +53,8 @@ pub const LOG_FILE: &str = "log.native";
 pub const CROSSINGS_FILE: &str = "post/crossings.csv";
 /// Name of the kernel's program.
 pub const PROGRAM: &str = "orch-dem";
-/// Header line of [`CROSSINGS_FILE`].
-pub const CROSSINGS_HEADER: &str =
-    "time_s,id,type,radius_m,mass_kg,x_m,y_m,z_m,vx_m_s,vy_m_s,vz_m_s";
+/// Header line of [`CROSSINGS_FILE`] ([`crossing_csv`] owns the format).
+pub use orch_granular::crossing_csv::HEADER as CROSSINGS_HEADER;
 
 /// The `orch-dem` program: the one installed beside the running executable (as
 /// `cargo install --path orchestrator` installs both), else the name, found on PATH.
@@ -141,32 +140,7 @@ pub fn read_crossings<R: BufRead>(reader: R, path: &Path) -> Result<Vec<Crossing
         if line.trim().is_empty() {
             continue;
         }
-        let fields: Vec<&str> = line.split(',').collect();
-        let numbers: Option<Vec<f64>> = fields.iter().map(|f| f.trim().parse().ok()).collect();
-        let numbers = numbers
-            .filter(|n| n.len() == 11 && n.iter().all(|v| v.is_finite()))
-            .ok_or_else(|| {
-                malformed(
-                    number,
-                    format!("expected 11 finite numbers ({CROSSINGS_HEADER}), found `{line}`"),
-                )
-            })?;
-        let (time, radius, mass) = (numbers[0], numbers[3], numbers[4]);
-        if !(time >= 0.0 && radius > 0.0 && mass > 0.0) {
-            return Err(malformed(
-                number,
-                format!("a crossing needs a time ≥ 0 and a positive radius and mass, found time {time} s, radius {radius} m, mass {mass} kg"),
-            ));
-        }
-        crossings.push(Crossing {
-            time_s: numbers[0],
-            id: numbers[1] as u64,
-            particle_type: numbers[2] as u32,
-            radius_m: numbers[3],
-            mass_kg: numbers[4],
-            position_m: [numbers[5], numbers[6], numbers[7]],
-            velocity_m_per_s: [numbers[8], numbers[9], numbers[10]],
-        });
+        crossings.push(crossing_csv::parse_row(&line).map_err(|e| malformed(number, e))?);
     }
     if !saw_header {
         return Err(malformed(

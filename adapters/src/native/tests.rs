@@ -123,11 +123,6 @@ fn truncated_or_failed_logs_are_errors_with_the_line() {
 }
 
 #[test]
-fn the_reader_expects_the_header_the_kernel_writes() {
-    assert_eq!(CROSSINGS_HEADER, orch_dem::output::CROSSINGS_HEADER);
-}
-
-#[test]
 fn crossings_are_read_in_time_order() {
     let csv = format!(
         "{CROSSINGS_HEADER}\n0.5,7,1,0.002,8e-5,0.001,0,-0.005,0,0,-1\n0.25,3,2,0.001,1e-5,0,0.002,-0.005,0,0,-0.5\n"
@@ -324,4 +319,21 @@ fn the_case_file_does_not_depend_on_the_cores() {
     let case = case_with(&[]);
     let texts = |cores| hopper::on(&SOLVER).with_cores(cores).render_texts(&case);
     assert_eq!(texts(1).unwrap(), texts(4).unwrap());
+}
+
+#[test]
+fn the_loop_line_reads_back_as_written() {
+    let line = LoopLine {
+        seconds: 3.25,
+        threads: 2,
+        steps: 10_000,
+        particle_steps: 3e7,
+    };
+    let text = line.to_string();
+    assert_eq!(
+        text,
+        "Loop time of 3.250000 s on 2 threads for 10000 steps with 30000000 particle-steps (9.2308e6 particle-steps/s)"
+    );
+    assert_eq!(LoopLine::find_in(&format!("x\n{text}\ny\n")), Some(line));
+    assert_eq!(LoopLine::find_in("Loop time of 3 s\n"), None);
 }

@@ -75,7 +75,7 @@ fn crossings_and_the_sink_are_the_same_on_any_thread_count() {
     assert_eq!(crossings.len(), 1200);
     assert_eq!(*remaining, 0);
     assert!(*discharged_kg > 0.0);
-    let mut ids: Vec<u32> = crossings.iter().map(|c| c.id).collect();
+    let mut ids: Vec<u64> = crossings.iter().map(|c| c.id).collect();
     ids.sort_unstable();
     ids.dedup();
     assert_eq!(ids.len(), 1200);

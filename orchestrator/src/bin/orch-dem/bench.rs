@@ -436,8 +436,9 @@ fn settled_bed_run(
         .with_context(|| format!("cannot read {}", dir.join(log).display()))?;
     let (loop_time_s, particle_steps, note) = match code {
         Code::Native => {
-            let (seconds, particle_steps) = settled_bed::native_loop_line(&text)
+            let line = orch_adapters::native::LoopLine::find_in(&text)
                 .with_context(|| format!("no loop time in {}", dir.join(log).display()))?;
+            let (seconds, particle_steps) = (line.seconds, line.particle_steps);
             let note = text
                 .lines()
                 .find(|l| l.starts_with("Stage times"))
@@ -446,7 +447,7 @@ fn settled_bed_run(
             (seconds, particle_steps, note)
         }
         _ => {
-            let lines = settled_bed::loop_lines(&text);
+            let lines = orch_adapters::liggghts::LoopLine::all_in(&text);
             if lines.is_empty() {
                 bail!("no loop time in {}", dir.join(log).display());
             }

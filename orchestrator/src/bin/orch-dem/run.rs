@@ -199,14 +199,13 @@ pub fn run(case_path: &Path, log_path: &Path, threads: usize) -> anyhow::Result<
         discharged_mass_kg: simulation.discharged_mass_kg(),
         stopped_by_stop_file,
     };
-    writeln!(
-        log,
-        "Loop time of {:.6} s on {threads} threads for {} steps with {} particle-steps ({:.4e} particle-steps/s)",
-        loop_time.as_secs_f64(),
-        summary.steps,
-        summary.particle_steps,
-        summary.throughput()
-    )?;
+    let loop_line = orch_adapters::native::LoopLine {
+        seconds: loop_time.as_secs_f64(),
+        threads,
+        steps: summary.steps,
+        particle_steps: summary.particle_steps as f64,
+    };
+    writeln!(log, "{loop_line}")?;
     writeln!(log, "{}", profile(&summary.timers, loop_time))?;
     writeln!(
         log,

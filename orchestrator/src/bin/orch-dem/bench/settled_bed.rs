@@ -394,56 +394,6 @@ pub fn tsuji_restitution(e: f64) -> f64 {
     0.5 * (low + high)
 }
 
-/// One `Loop time of X on P procs for S steps with A atoms` line of LIGGGHTS or LAMMPS.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct LoopLine {
-    /// Wall time of the run's time loop, s.
-    pub seconds: f64,
-    /// MPI ranks.
-    pub procs: u32,
-    /// Steps of the run.
-    pub steps: u64,
-    /// Atoms at the end of the run.
-    pub atoms: u64,
-}
-
-/// Every `Loop time of …` line in a LIGGGHTS or LAMMPS log, in order.
-pub fn loop_lines(log: &str) -> Vec<LoopLine> {
-    log.lines()
-        .filter_map(|line| {
-            let words: Vec<&str> = line.split_whitespace().collect();
-            match words.as_slice() {
-                // LIGGGHTS goes on: `… atoms, finish time …`.
-                ["Loop", "time", "of", seconds, "on", procs, "procs", "for", steps, "steps", "with", atoms, unit, ..]
-                    if unit.trim_end_matches(',') == "atoms" =>
-                {
-                    Some(LoopLine {
-                        seconds: seconds.parse().ok()?,
-                        procs: procs.parse().ok()?,
-                        steps: steps.parse().ok()?,
-                        atoms: atoms.parse().ok()?,
-                    })
-                }
-                _ => None,
-            }
-        })
-        .collect()
-}
-
-/// The native log's `Loop time of X s on N threads for S steps with P particle-steps`
-/// line: (loop time in s, particle-steps).
-pub fn native_loop_line(log: &str) -> Option<(f64, f64)> {
-    log.lines().find_map(|line| {
-        let words: Vec<&str> = line.split_whitespace().collect();
-        match words.as_slice() {
-            ["Loop", "time", "of", seconds, "s", "on", _, "threads", "for", _, "steps", "with", particle_steps, "particle-steps", ..] => {
-                Some((seconds.parse().ok()?, particle_steps.parse().ok()?))
-            }
-            _ => None,
-        }
-    })
-}
-
 /// Mean height of the particles' centres in the last snapshot of a `dump custom` file
 /// with a `z` column, m, and the number of particles in it.
 pub fn mean_height(path: &Path) -> anyhow::Result<(f64, usize)> {
@@ -585,32 +535,6 @@ mod tests {
         assert!(liggghts.contains("coefficientRestitution peratomtypepair 2 0.6 0.6 0.6 0.6"));
         assert_eq!(liggghts.matches("primitive type 1").count(), 5);
         assert!(liggghts.contains("run 1000"));
-    }
-
-    #[test]
-    fn loop_lines_of_liggghts_lammps_and_the_native_log_are_read() {
-        let log = "Step Atoms KinEng CPU\n0 3000 0 0\nLoop time of 12.5 on 2 procs for 10000 steps with 2998 atoms\n\nPerformance: 1 tau/day\nLoop time of 0.25 on 1 procs for 100 steps with 3000 atoms, finish time Tue Dec  1 23:18:01 2026\n";
-        assert_eq!(
-            loop_lines(log),
-            [
-                LoopLine {
-                    seconds: 12.5,
-                    procs: 2,
-                    steps: 10000,
-                    atoms: 2998
-                },
-                LoopLine {
-                    seconds: 0.25,
-                    procs: 1,
-                    steps: 100,
-                    atoms: 3000
-                },
-            ]
-        );
-        assert!(loop_lines("Loop time of x on 1 procs for 1 steps with 1 atoms\n").is_empty());
-        let native = "Loop time of 3.250000 s on 2 threads for 10000 steps with 30000000 particle-steps (9.2308e6 particle-steps/s)\n";
-        assert_eq!(native_loop_line(native), Some((3.25, 3e7)));
-        assert_eq!(native_loop_line("Loop time of 3 s\n"), None);
     }
 
     #[test]

@@ -31,7 +31,12 @@ pub struct ResponseSpec {
     /// A series' abscissa with its unit, `t [s]` for a time series (`r [m]` for a
     /// radial density); unused by a scalar response.
     pub over: Cow<'static, str>,
+    /// The response each run reports the half-width of this one's 95 % interval in
+    /// (the hopper's `discharge_rate` → `discharge_rate_ci95`), when it has one: what
+    /// `stop_when:` watches and what tells Kriging a run's noise.
+    pub interval: Option<Cow<'static, str>>,
 }
+
 
 /// The horizontal plane below or beside the equipment where particles are watched:
 /// every crossing of it is an observation ([`Observations::crossings`]).
@@ -106,6 +111,24 @@ pub(crate) const fn response(
         unit: Cow::Borrowed(unit),
         description: Cow::Borrowed(description),
         over: Cow::Borrowed(TIME_AXIS),
+        interval: None,
+    }
+}
+
+/// A response spec whose runs also report the half-width of its 95 % interval as the
+/// response `interval`.
+pub(crate) const fn response_with_interval(
+    name: &'static str,
+    unit: &'static str,
+    description: &'static str,
+    interval: &'static str,
+) -> ResponseSpec {
+    ResponseSpec {
+        name: Cow::Borrowed(name),
+        unit: Cow::Borrowed(unit),
+        description: Cow::Borrowed(description),
+        over: Cow::Borrowed(TIME_AXIS),
+        interval: Some(Cow::Borrowed(interval)),
     }
 }
 
@@ -124,5 +147,6 @@ pub(crate) const fn series_over(
         unit: Cow::Borrowed(unit),
         description: Cow::Borrowed(description),
         over: Cow::Borrowed(over),
+        interval: None,
     }
 }

@@ -18,7 +18,9 @@ use orch_granular::steady::BATCHES;
 use orch_granular::{DischargeResponses, HopperGeometry, ResponseOptions};
 use tera::Context;
 
-use crate::equipment::{response, series_over, Equipment, ResponseSpec, SensorPlane};
+use crate::equipment::{
+    response, response_with_interval, series_over, Equipment, ResponseSpec, SensorPlane,
+};
 use crate::params::spec;
 use crate::primes::prime_seed;
 use crate::simulation::write;
@@ -36,10 +38,11 @@ pub const MASS_FLOW_BIN_S: f64 = 0.02;
 pub static RESPONSES: &[ResponseSpec] = &[
     response("discharged_count", "-", "particles that crossed the sensor plane"),
     response("discharged_mass", "kg", "mass that crossed the sensor plane"),
-    response(
+    response_with_interval(
         "discharge_rate",
         "kg/s",
         "steady discharge rate: least-squares slope of the discharged mass over the steady window (the longest run of local rates within 25 % of the median)",
+        "discharge_rate_ci95",
     ),
     response(
         "discharge_rate_ci95",

@@ -157,6 +157,7 @@ mod tests {
                 from: None,
                 to: None,
                 pick: Pick::Last,
+                interval: None,
             }],
         )
         .unwrap();

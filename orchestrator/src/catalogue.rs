@@ -135,7 +135,14 @@ fn responses_text(out: &mut String, title: &str, responses: &[ResponseSpec]) {
     }
     let _ = writeln!(out, "{title}:");
     for r in responses {
-        let _ = writeln!(out, "  {:<24} {:<8} {}", r.name, r.unit, r.description);
+        let _ = writeln!(
+            out,
+            "  {:<24} {:<8} {}{}",
+            r.name,
+            r.unit,
+            r.description,
+            interval_note(r)
+        );
     }
     out.push('\n');
 }
@@ -220,6 +227,15 @@ fn parameters_markdown(out: &mut String, parameters: &[ParameterSpec]) {
     out.push('\n');
 }
 
+/// ` (95 % interval: <name>)` for a response whose runs report its interval.
+fn interval_note(response: &ResponseSpec) -> String {
+    response
+        .interval
+        .as_ref()
+        .map(|name| format!(" (95 % interval: {name})"))
+        .unwrap_or_default()
+}
+
 fn responses_markdown(out: &mut String, title: &str, responses: &[ResponseSpec]) {
     if responses.is_empty() {
         return;
@@ -229,7 +245,14 @@ fn responses_markdown(out: &mut String, title: &str, responses: &[ResponseSpec])
         "{title}:\n\n| name | unit | description |\n|---|---|---|\n"
     );
     for r in responses {
-        let _ = writeln!(out, "| `{}` | {} | {} |", r.name, r.unit, r.description);
+        let _ = writeln!(
+            out,
+            "| `{}` | {} | {}{} |",
+            r.name,
+            r.unit,
+            r.description,
+            interval_note(r)
+        );
     }
     out.push('\n');
 }

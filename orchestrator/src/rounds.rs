@@ -159,11 +159,12 @@ async fn analyse(
         BasisKind::Monomial => "monomial",
     };
     let responses = fitted_responses(study);
-    // A response whose runs also report its 95 % interval (`<name>_ci95`, as the
-    // hopper's discharge rate does) tells Kriging its run-to-run noise.
+    // A response whose runs also report its 95 % interval (its spec's `interval`, as
+    // the hopper's discharge rate has) tells Kriging its run-to-run noise.
     let with_intervals: Vec<String> = responses
         .iter()
-        .flat_map(|r| [r.clone(), interval_name(r)])
+        .flat_map(|r| [Some(r.clone()), study.interval_of(r).map(str::to_string)])
+        .flatten()
         .collect();
     let leveled = !study.fidelities.is_empty();
     let data = observed(store, study_id, round, &with_intervals, leveled).await?;
@@ -185,7 +186,8 @@ async fn analyse(
             ));
             continue;
         }
-        let options = match noise_from_intervals(x, y, &data[&interval_name(response)]) {
+        let intervals = study.interval_of(response).and_then(|name| data.get(name));
+        let options = match intervals.and_then(|intervals| noise_from_intervals(x, y, intervals)) {
             Some(variance) => KrigingOptions {
                 nugget: Nugget::Fixed(variance),
                 ..options
@@ -392,11 +394,6 @@ async fn previous_length_scales(
         }
     }
     Ok(out)
-}
-
-/// The response that holds the half-width of `response`'s 95 % interval in each run.
-fn interval_name(response: &str) -> String {
-    format!("{response}_ci95")
 }
 
 /// The run-to-run noise variance of a response whose runs report the half-width of

@@ -249,6 +249,9 @@ pub struct DeclaredResponse {
     pub to: Option<f64>,
     /// Which of the files a glob (`post/dump_*.txt`) matches are read.
     pub pick: Pick,
+    /// The declared response that holds the half-width of this one's 95 % interval in
+    /// each run, if any.
+    pub interval: Option<String>,
 }
 
 /// Which files of a glob a response reads.
@@ -1034,6 +1037,7 @@ mod tests {
             from: None,
             to: None,
             pick: Pick::Last,
+            interval: None,
         };
         let read = response.read(dir.path()).unwrap();
         assert_eq!(
@@ -1104,6 +1108,7 @@ mod tests {
             from: None,
             to: None,
             pick: Pick::Last,
+            interval: None,
         };
         assert_eq!(
             response.read(dir.path()).unwrap().value,
@@ -1153,6 +1158,7 @@ mod tests {
             from: None,
             to: None,
             pick,
+            interval: None,
         };
         let read = |pick, reduce| response(pick, reduce).read(dir.path()).unwrap();
         // The last in natural order is step 1000; the newest written is step 200.
@@ -1205,6 +1211,7 @@ mod tests {
             from: Some(2000.0),
             to: None,
             pick: Pick::Last,
+            interval: None,
         };
         let read = response.read(dir.path()).unwrap();
         assert_eq!(read.value, 2.0);

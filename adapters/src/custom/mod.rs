@@ -132,6 +132,7 @@ impl CustomDeck {
                 unit: r.unit.clone().into(),
                 description: format!("declared: {} of {}", r.reduce.name(), r.source).into(),
                 over: axis_of(&r.source).into(),
+                interval: r.interval.clone().map(Into::into),
             })
             .collect();
         for response in &responses {
@@ -291,6 +292,7 @@ mod tests {
             from: None,
             to: None,
             pick: Pick::Last,
+            interval: None,
         }
     }
 

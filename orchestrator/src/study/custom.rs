@@ -287,6 +287,20 @@ impl Checker<'_> {
             }
             responses.push(response);
         }
+        for (i, response) in responses.iter().enumerate() {
+            let Some(interval) = &response.interval else {
+                continue;
+            };
+            if interval == &response.name || !responses.iter().any(|r| &r.name == interval) {
+                return Err(self.error(
+                    &format!("{at}.responses[{i}].interval"),
+                    format!(
+                        "expected another declared response holding the half-width of `{}`'s 95 % interval, got `{interval}`",
+                        response.name
+                    ),
+                ));
+            }
+        }
         CustomDeck::new(
             templates,
             files,
@@ -516,6 +530,7 @@ impl Checker<'_> {
             from: declared.from,
             to: declared.to,
             pick,
+            interval: declared.interval.clone(),
         })
     }
 

@@ -246,6 +246,10 @@ pub enum ColumnFile {
 pub struct DeclaredResponseFile {
     /// Its name in `responses:`, `objective:` and the store.
     pub name: String,
+    /// Another declared response that holds the half-width of this one's 95 %
+    /// interval in each run (for `stop_when:` and the fit's noise).
+    #[serde(default)]
+    pub interval: Option<String>,
     /// Its unit.
     #[serde(default)]
     pub unit: Option<String>,

@@ -709,6 +709,18 @@ impl Study {
         }
     }
 
+    /// The response whose value in each run is the half-width of `response`'s 95 %
+    /// interval, when its spec names one (the hopper's `discharge_rate_ci95`).
+    pub fn interval_of(&self, response: &str) -> Option<&str> {
+        let stages = self.stages.iter().flat_map(|s| s.stage.responses());
+        self.simulation
+            .responses()
+            .iter()
+            .chain(stages)
+            .find(|spec| spec.name == response)
+            .and_then(|spec| spec.interval.as_deref())
+    }
+
     /// Every response the study's runs can produce: the equipment's, then each stage's.
     pub fn known_responses(&self) -> Vec<&str> {
         known_responses(self.simulation.as_ref(), &self.stages)
@@ -1190,19 +1202,22 @@ impl Checker<'_> {
         stop: file::StopWhenFile,
         simulation: &dyn Simulation,
     ) -> Result<StopWhen, StudyError> {
-        let reported = |name: &str| simulation.responses().iter().any(|r| r.name == name);
-        let ci95_response = format!("{}_ci95", stop.response);
-        if !reported(&stop.response) || !reported(&ci95_response) {
+        let interval = simulation
+            .responses()
+            .iter()
+            .find(|r| r.name == stop.response)
+            .and_then(|r| r.interval.clone());
+        let Some(ci95_response) = interval else {
             let with_interval: Vec<&str> = simulation
                 .responses()
                 .iter()
+                .filter(|r| r.interval.is_some())
                 .map(|r| r.name.as_ref())
-                .filter(|name| reported(&format!("{name}_ci95")))
                 .collect();
             return Err(self.error(
                 "stop_when.response",
                 format!(
-                    "expected a response reported with its 95 % interval (`<name>_ci95`), got `{}`; such responses here: {}",
+                    "expected a response reported with its 95 % interval (`orch params` names each one's), got `{}`; such responses here: {}",
                     stop.response,
                     if with_interval.is_empty() {
                         "none".to_string()
@@ -1211,7 +1226,7 @@ impl Checker<'_> {
                     }
                 ),
             ));
-        }
+        };
         if !(stop.ci95_below > 0.0 && stop.ci95_below < 1.0) {
             return Err(self.error(
                 "stop_when.ci95_below",
@@ -1227,7 +1242,7 @@ impl Checker<'_> {
         }
         Ok(StopWhen {
             response: stop.response,
-            ci95_response,
+            ci95_response: ci95_response.into_owned(),
             relative_ci95: stop.ci95_below,
             check_every,
         })

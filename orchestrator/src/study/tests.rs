@@ -685,7 +685,7 @@ fn stop_when_names_a_response_with_an_interval_and_a_relative_target() {
         error(&format!(
             "{VALID}stop_when: {{response: exit_speed, ci95_below: 0.03}}\n"
         )),
-        "jobs/study.yaml:18:23: stop_when.response: expected a response reported with its 95 % interval (`<name>_ci95`), got `exit_speed`; such responses here: discharge_rate"
+        "jobs/study.yaml:18:23: stop_when.response: expected a response reported with its 95 % interval (`orch params` names each one's), got `exit_speed`; such responses here: discharge_rate"
     );
     assert_eq!(
         error(&format!(
@@ -765,6 +765,37 @@ factors:
 fixed: {z: 2}
 design: {type: full_factorial, levels: 3}
 ";
+
+#[test]
+fn a_custom_response_names_the_response_holding_its_interval() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("deck.sh.tera"), "echo y = {{ x }} {{ z }}\n").unwrap();
+    let load = |responses: &str, extra: &str| {
+        let text = CUSTOM_ANY_RANGE.replace(
+            "    - {name: y, regex: 'y = (\\S+)'}\n",
+            responses,
+        );
+        let path = dir.path().join("bounded.yaml");
+        std::fs::write(&path, format!("{text}{extra}")).unwrap();
+        Study::load(&path)
+    };
+    let with_interval = "    - {name: y, regex: 'y = (\\S+)', interval: y_half}\n    - {name: y_half, regex: 'h = (\\S+)'}\n";
+    let stop = "stop_when: {response: y, ci95_below: 0.05}\n";
+    let study = load(with_interval, stop).unwrap();
+    assert_eq!(study.interval_of("y"), Some("y_half"));
+    assert_eq!(study.interval_of("y_half"), None);
+    assert_eq!(study.stop_when.unwrap().ci95_response, "y_half");
+    // Without one, `stop_when:` has nothing to watch; a name not declared is refused.
+    let without = "    - {name: y, regex: 'y = (\\S+)'}\n";
+    let error = load(without, stop).map(drop).unwrap_err().to_string();
+    assert!(error.contains("stop_when.response: expected a response reported with its 95 % interval"), "{error}");
+    let unknown = with_interval.replace("interval: y_half", "interval: y_ci95");
+    let error = load(&unknown, "").map(drop).unwrap_err().to_string();
+    assert!(
+        error.contains("case.responses[0].interval: expected another declared response holding the half-width of `y`'s 95 % interval, got `y_ci95`"),
+        "{error}"
+    );
+}
 
 #[test]
 fn a_range_too_wide_for_a_float_and_non_finite_values_are_refused_naming_the_field() {

@@ -37,7 +37,6 @@ pub struct ResponseSpec {
     pub interval: Option<Cow<'static, str>>,
 }
 
-
 /// The horizontal plane below or beside the equipment where particles are watched:
 /// every crossing of it is an observation ([`Observations::crossings`]).
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -769,12 +769,13 @@ design: {type: full_factorial, levels: 3}
 #[test]
 fn a_custom_response_names_the_response_holding_its_interval() {
     let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("deck.sh.tera"), "echo y = {{ x }} {{ z }}\n").unwrap();
+    std::fs::write(
+        dir.path().join("deck.sh.tera"),
+        "echo y = {{ x }} {{ z }}\n",
+    )
+    .unwrap();
     let load = |responses: &str, extra: &str| {
-        let text = CUSTOM_ANY_RANGE.replace(
-            "    - {name: y, regex: 'y = (\\S+)'}\n",
-            responses,
-        );
+        let text = CUSTOM_ANY_RANGE.replace("    - {name: y, regex: 'y = (\\S+)'}\n", responses);
         let path = dir.path().join("bounded.yaml");
         std::fs::write(&path, format!("{text}{extra}")).unwrap();
         Study::load(&path)
@@ -788,7 +789,10 @@ fn a_custom_response_names_the_response_holding_its_interval() {
     // Without one, `stop_when:` has nothing to watch; a name not declared is refused.
     let without = "    - {name: y, regex: 'y = (\\S+)'}\n";
     let error = load(without, stop).map(drop).unwrap_err().to_string();
-    assert!(error.contains("stop_when.response: expected a response reported with its 95 % interval"), "{error}");
+    assert!(
+        error.contains("stop_when.response: expected a response reported with its 95 % interval"),
+        "{error}"
+    );
     let unknown = with_interval.replace("interval: y_half", "interval: y_ci95");
     let error = load(&unknown, "").map(drop).unwrap_err().to_string();
     assert!(

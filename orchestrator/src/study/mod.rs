@@ -861,70 +861,7 @@ impl Checker<'_> {
                 "more than one round needs an `objective:` to move the box towards",
             ));
         }
-        let model = match (file.metamodel.model, file.metamodel.order) {
-            (None, None) | (Some(ModelFile::Auto), None) => ModelChoice::Auto,
-            (Some(ModelFile::Kriging), None) => ModelChoice::Kriging,
-            (None | Some(ModelFile::Polynomial), order) => {
-                let order = order.unwrap_or(2);
-                if !(1..=3).contains(&order) {
-                    return Err(self.error(
-                        "metamodel.order",
-                        format!("expected an order of 1, 2 or 3, got {order}"),
-                    ));
-                }
-                ModelChoice::Polynomial { order }
-            }
-            (Some(other), Some(_)) => {
-                let name = if other == ModelFile::Auto {
-                    "auto"
-                } else {
-                    "kriging"
-                };
-                return Err(self.error(
-                    "metamodel.order",
-                    format!("`order` sets the polynomial of `model: polynomial`; `model: {name}` chooses its own (remove `order`, or write `model: polynomial`)"),
-                ));
-            }
-        };
-        let shrink = file.next_round.shrink;
-        if !(shrink > 0.0 && shrink <= 1.0) {
-            return Err(self.error(
-                "next_round.shrink",
-                format!("expected a fraction in (0, 1], got {shrink}"),
-            ));
-        }
-        if !(file.next_round.tolerance.is_finite() && file.next_round.tolerance >= 0.0) {
-            return Err(self.error("next_round.tolerance", "expected a non-negative fraction"));
-        }
-        let metamodel = MetamodelConfig {
-            basis: match file.metamodel.basis {
-                BasisFile::Monomial => BasisKind::Monomial,
-                BasisFile::Legendre => BasisKind::Legendre,
-            },
-            model,
-            kernel: match file.metamodel.kernel {
-                KernelFile::Matern52 => Kernel::Matern52,
-                KernelFile::SquaredExponential => Kernel::SquaredExponential,
-            },
-            trend: match file.metamodel.trend {
-                TrendFile::Constant => Trend::Constant,
-                TrendFile::Linear => Trend::Linear,
-            },
-            shrink,
-            tolerance: file.next_round.tolerance,
-            test_points: file.metamodel.test_points.unwrap_or_else(|| {
-                default_test_points(&design_kind, factors.len(), objective.is_some())
-            }),
-        };
-        if metamodel.test_points == 1 || metamodel.test_points > 1000 {
-            return Err(self.error(
-                "metamodel.test_points",
-                format!(
-                    "expected 0 or 2 to 1000 test points, got {}",
-                    metamodel.test_points
-                ),
-            ));
-        }
+        let metamodel = self.metamodel(&file, &design_kind, factors.len(), objective.is_some())?;
         let uncertainty = match &file.uncertainty {
             None => None,
             Some(u) => {
@@ -1008,6 +945,96 @@ impl Checker<'_> {
             inputs,
             file_sha256,
         };
+        self.check_points(&study, deck.is_some())?;
+        if deck.is_some() {
+            self.every_factor_is_used(&study)?;
+        }
+        self.check_coupled_case(&study)?;
+        Ok(study)
+    }
+
+    /// `metamodel:` and `next_round:`: the surrogate, its basis, kernel and trend, the
+    /// box's shrink and tolerance, and the held-out test points (by default as many as
+    /// the design and factor count call for).
+    fn metamodel(
+        &self,
+        file: &StudyFile,
+        design_kind: &DesignKind,
+        factor_count: usize,
+        has_objective: bool,
+    ) -> Result<MetamodelConfig, StudyError> {
+        let model = match (file.metamodel.model, file.metamodel.order) {
+            (None, None) | (Some(ModelFile::Auto), None) => ModelChoice::Auto,
+            (Some(ModelFile::Kriging), None) => ModelChoice::Kriging,
+            (None | Some(ModelFile::Polynomial), order) => {
+                let order = order.unwrap_or(2);
+                if !(1..=3).contains(&order) {
+                    return Err(self.error(
+                        "metamodel.order",
+                        format!("expected an order of 1, 2 or 3, got {order}"),
+                    ));
+                }
+                ModelChoice::Polynomial { order }
+            }
+            (Some(other), Some(_)) => {
+                let name = if other == ModelFile::Auto {
+                    "auto"
+                } else {
+                    "kriging"
+                };
+                return Err(self.error(
+                    "metamodel.order",
+                    format!("`order` sets the polynomial of `model: polynomial`; `model: {name}` chooses its own (remove `order`, or write `model: polynomial`)"),
+                ));
+            }
+        };
+        let shrink = file.next_round.shrink;
+        if !(shrink > 0.0 && shrink <= 1.0) {
+            return Err(self.error(
+                "next_round.shrink",
+                format!("expected a fraction in (0, 1], got {shrink}"),
+            ));
+        }
+        if !(file.next_round.tolerance.is_finite() && file.next_round.tolerance >= 0.0) {
+            return Err(self.error("next_round.tolerance", "expected a non-negative fraction"));
+        }
+        let metamodel = MetamodelConfig {
+            basis: match file.metamodel.basis {
+                BasisFile::Monomial => BasisKind::Monomial,
+                BasisFile::Legendre => BasisKind::Legendre,
+            },
+            model,
+            kernel: match file.metamodel.kernel {
+                KernelFile::Matern52 => Kernel::Matern52,
+                KernelFile::SquaredExponential => Kernel::SquaredExponential,
+            },
+            trend: match file.metamodel.trend {
+                TrendFile::Constant => Trend::Constant,
+                TrendFile::Linear => Trend::Linear,
+            },
+            shrink,
+            tolerance: file.next_round.tolerance,
+            test_points: file
+                .metamodel
+                .test_points
+                .unwrap_or_else(|| default_test_points(design_kind, factor_count, has_objective)),
+        };
+        if metamodel.test_points == 1 || metamodel.test_points > 1000 {
+            return Err(self.error(
+                "metamodel.test_points",
+                format!(
+                    "expected 0 or 2 to 1000 test points, got {}",
+                    metamodel.test_points
+                ),
+            ));
+        }
+        Ok(metamodel)
+    }
+
+    /// Every design point describes something its solver can build, and a template of
+    /// the user's renders at every point (`custom_deck`: the equipment is the user's
+    /// own deck). Left out when the study is only read (status, report).
+    fn check_points(&self, study: &Study, custom_deck: bool) -> Result<(), StudyError> {
         // Every point must describe something the solver can build; a template of the
         // user's must render at every point, and use every factor.
         let user_templates = study.simulation.accepts_undeclared_parameters();
@@ -1034,7 +1061,7 @@ impl Checker<'_> {
                     .zip(&point.natural)
                     .map(|(f, v)| format!("{} = {v}", f.name))
                     .collect();
-                let field = if deck.is_some() {
+                let field = if custom_deck {
                     "case.templates"
                 } else if user_templates {
                     "template"
@@ -1050,11 +1077,7 @@ impl Checker<'_> {
                 ));
             }
         }
-        if deck.is_some() {
-            self.every_factor_is_used(&study)?;
-        }
-        self.check_coupled_case(&study)?;
-        Ok(study)
+        Ok(())
     }
 
     /// A `fixed:` number (at field `at`) that `simulation` takes: within its range, or

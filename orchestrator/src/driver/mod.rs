@@ -31,7 +31,6 @@
 
 mod collect;
 
-
 use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;

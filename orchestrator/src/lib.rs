@@ -12,7 +12,7 @@ pub mod convergence;
 pub mod coupling;
 pub mod decide;
 pub mod driver;
-pub mod executor;
+pub use orch_executor as executor;
 pub mod exit_codes;
 pub mod export;
 pub mod identity;

@@ -14,7 +14,7 @@ use std::fmt::Write;
 use std::time::Duration;
 
 use super::SlurmSettings;
-use crate::executor::{
+use crate::{
     LaunchSpec, ATTEMPTS_LOG, EXIT_STATUS_FILE, LINE_BUFFERED, STDERR_FILE, STDOUT_FILE,
 };
 

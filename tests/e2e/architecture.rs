@@ -179,3 +179,39 @@ fn no_chute_response_name_is_spelled_outside_the_chute_module() {
         offenders.join("\n")
     );
 }
+
+/// The stage seam: the plan, driver, store, status and CLI take every stage kind
+/// alike, so the orchestrator spells no kind (as a string or as its module's `KIND`)
+/// outside the study file's sections that name one (the `cfd:` shorthand,
+/// `coupling:`, `stages: {script: …}`) and the decoding of `jobs.stage`.
+#[test]
+fn no_job_path_branches_on_a_stage_kind() {
+    let allowed_dirs = [root().join("orchestrator/src/study")];
+    // `JobKind` decodes `jobs.stage` into a known kind: the registry's, and `script`.
+    let allowed_files = [root().join("orchestrator/src/plan.rs")];
+    let mut offenders = Vec::new();
+    for dir in ["orchestrator/src"] {
+        for (path, text) in production_sources(&root().join(dir)) {
+            if allowed_files.contains(&path) || allowed_dirs.iter().any(|d| path.starts_with(d)) {
+                continue;
+            }
+            for spelled in [
+                "\"cfd\"",
+                "\"air\"",
+                "\"script\"",
+                "openfoam::KIND",
+                "dem_in_air::KIND",
+                "script_stage::KIND",
+            ] {
+                if text.contains(spelled) {
+                    offenders.push(format!("{} spells {spelled}", path.display()));
+                }
+            }
+        }
+    }
+    assert!(
+        offenders.is_empty(),
+        "stage kinds outside their modules (ask the stage instead):\n{}",
+        offenders.join("\n")
+    );
+}

@@ -14,9 +14,7 @@ use std::fmt::Write;
 use std::time::Duration;
 
 use super::SlurmSettings;
-use crate::{
-    LaunchSpec, ATTEMPTS_LOG, EXIT_STATUS_FILE, LINE_BUFFERED, STDERR_FILE, STDOUT_FILE,
-};
+use crate::{LaunchSpec, ATTEMPTS_LOG, EXIT_STATUS_FILE, LINE_BUFFERED, STDERR_FILE, STDOUT_FILE};
 
 /// File name of the batch script in the run directory.
 pub const BATCH_SCRIPT: &str = "orch-job.sbatch";

@@ -217,3 +217,38 @@ impl Checker<'_> {
         })
     }
 }
+
+impl Checker<'_> {
+    /// The design's kind and its points in the factors' box, every value finite.
+    pub(super) fn design_points(
+        &self,
+        file: &StudyFile,
+        factors: &[Factor],
+    ) -> Result<(DesignKind, Vec<DesignPoint>), StudyError> {
+        let design_kind = self.design_kind("design", &file.design, file.seed)?;
+        let levels: Vec<u32> = factors.iter().map(Factor::level_count).collect();
+        let design =
+            coded_design(&design_kind, &levels).map_err(|e| self.error("design", e.to_string()))?;
+        let limits: Vec<FactorRange> = factors.iter().map(|f| f.range).collect();
+        let points: Vec<DesignPoint> = design
+            .into_iter()
+            .map(|coded| DesignPoint::in_box(coded, &limits, &levels))
+            .collect();
+        for (index, point) in points.iter().enumerate() {
+            if let Some((factor, value)) = factors
+                .iter()
+                .zip(&point.natural)
+                .find(|(_, v)| !v.is_finite())
+            {
+                return Err(self.error(
+                    "design",
+                    format!(
+                        "design point {index} puts `{}` at {value}; every design value must be a finite number: narrow the factor's range",
+                        factor.name
+                    ),
+                ));
+            }
+        }
+        Ok((design_kind, points))
+    }
+}

@@ -791,10 +791,6 @@ impl Checker<'_> {
             } else {
                 (Arc::new(self.builtin_simulation(&file)?), None)
             };
-        let specs = simulation.parameters();
-        let spec_of = |name: &str| specs.iter().find(|s| s.name == name);
-        let custom_template = simulation.accepts_undeclared_parameters();
-
         let factors = self.factors(&file, simulation.as_ref(), deck.is_some())?;
         let (mut fixed, fixed_text) =
             self.fixed_values(&file, simulation.as_ref(), deck.is_some())?;
@@ -807,30 +803,7 @@ impl Checker<'_> {
                 ),
             ));
         }
-        let design_kind = self.design_kind("design", &file.design, file.seed)?;
-        let levels: Vec<u32> = factors.iter().map(Factor::level_count).collect();
-        let design =
-            coded_design(&design_kind, &levels).map_err(|e| self.error("design", e.to_string()))?;
-        let limits: Vec<FactorRange> = factors.iter().map(|f| f.range).collect();
-        let points: Vec<DesignPoint> = design
-            .into_iter()
-            .map(|coded| DesignPoint::in_box(coded, &limits, &levels))
-            .collect();
-        for (index, point) in points.iter().enumerate() {
-            if let Some((factor, value)) = factors
-                .iter()
-                .zip(&point.natural)
-                .find(|(_, v)| !v.is_finite())
-            {
-                return Err(self.error(
-                    "design",
-                    format!(
-                        "design point {index} puts `{}` at {value}; every design value must be a finite number: narrow the factor's range",
-                        factor.name
-                    ),
-                ));
-            }
-        }
+        let (design_kind, points) = self.design_points(&file, &factors)?;
         let fidelities = self.fidelities(&file, &simulation, points.len())?;
         let points = nested_points(points, &fidelities);
         let stages = self.stages(&file, simulation.as_ref(), &mut inputs)?;
@@ -862,43 +835,9 @@ impl Checker<'_> {
             ));
         }
         let metamodel = self.metamodel(&file, &design_kind, factors.len(), objective.is_some())?;
-        let uncertainty = match &file.uncertainty {
-            None => None,
-            Some(u) => {
-                let known = |name: &str| -> Option<ParameterRange> {
-                    match spec_of(name) {
-                        Some(spec) => Some((spec.min, spec.max, spec.unit.to_string())),
-                        None if custom_template => {
-                            Some((f64::NEG_INFINITY, f64::INFINITY, String::new()))
-                        }
-                        None => None,
-                    }
-                };
-                let config = self.uncertainty(u, &factors, &known, &file.fixed, file.seed)?;
-                // Materials are rendered at their mean while the design is optimised.
-                for material in config.noise.iter().flat_map(|n| &n.materials) {
-                    fixed.insert(material.name.clone(), mean_of(&material.distribution));
-                }
-                Some(config)
-            }
-        };
+        let uncertainty = self.uncertainty_of(&file, simulation.as_ref(), &factors, &mut fixed)?;
         if let Some(objective) = &objective {
-            let spread = uncertainty.as_ref().is_some_and(|u| {
-                !u.parameters.is_empty()
-                    || u.noise.as_ref().is_some_and(|n| !n.tolerances.is_empty())
-            });
-            let probabilistic = objective.probabilities.iter().position(Option::is_some);
-            let field = match (objective.robust.is_some(), probabilistic) {
-                (true, _) => Some("objective.robust".to_string()),
-                (false, Some(i)) => Some(format!("objective.constraints[{i}].probability")),
-                (false, None) => None,
-            };
-            if let Some(field) = field.filter(|_| !spread) {
-                return Err(self.error(
-                    &field,
-                    "needs a spread to be robust against: an uncertain factor (with `mean:`) or a factor's tolerance (`std:` only) in `uncertainty.parameters` (materials that are not factors are outside the surfaces; their noise design runs after the rounds)",
-                ));
-            }
+            self.objective_has_spread(objective, uncertainty.as_ref())?;
         }
         let coupling = match &file.coupling {
             None => None,

@@ -107,31 +107,7 @@ impl Checker<'_> {
             };
             (terms, goal_of(goal))
         };
-        let mut constraints = Vec::new();
-        let mut probabilities = Vec::new();
-        for (i, c) in objective.constraints.iter().enumerate() {
-            let at = format!("objective.constraints[{i}]");
-            known(&format!("{at}.response"), &c.response)?;
-            if c.min.is_none() && c.max.is_none() {
-                return Err(self.error(&at, "expected `min:`, `max:` or both"));
-            }
-            if let Some(p) = c.probability {
-                if !(p > 0.0 && p <= 0.5) {
-                    return Err(self.error(
-                        &format!("{at}.probability"),
-                        format!("expected a probability of passing the bound in (0, 0.5], got {p}"),
-                    ));
-                }
-                if c.min.is_some() && c.max.is_some() {
-                    return Err(self.error(
-                        &format!("{at}.probability"),
-                        "a probabilistic bound takes `min:` or `max:`, not both; write two constraints",
-                    ));
-                }
-            }
-            constraints.push((c.response.clone(), c.min, c.max));
-            probabilities.push(c.probability);
-        }
+        let (constraints, probabilities) = self.constraints(objective, &known)?;
         let robust = match &objective.robust {
             Some(r) if !(r.k.is_finite() && r.k > 0.0 && r.k <= 6.0) => {
                 return Err(self.error(
@@ -160,5 +136,71 @@ impl Checker<'_> {
             robust,
             probabilities,
         })
+    }
+}
+
+impl Checker<'_> {
+    /// A robust objective or a probabilistic bound needs a spread to be robust against.
+    pub(super) fn objective_has_spread(
+        &self,
+        objective: &Objective,
+        uncertainty: Option<&UncertaintyConfig>,
+    ) -> Result<(), StudyError> {
+        let spread = uncertainty.is_some_and(|u| {
+            !u.parameters.is_empty() || u.noise.as_ref().is_some_and(|n| !n.tolerances.is_empty())
+        });
+        let probabilistic = objective.probabilities.iter().position(Option::is_some);
+        let field = match (objective.robust.is_some(), probabilistic) {
+            (true, _) => Some("objective.robust".to_string()),
+            (false, Some(i)) => Some(format!("objective.constraints[{i}].probability")),
+            (false, None) => None,
+        };
+        if let Some(field) = field.filter(|_| !spread) {
+            return Err(self.error(
+                &field,
+                "needs a spread to be robust against: an uncertain factor (with `mean:`) or a factor's tolerance (`std:` only) in `uncertainty.parameters` (materials that are not factors are outside the surfaces; their noise design runs after the rounds)",
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Bounds on responses, `(response, min, max)`, as [`Objective::constraints`] holds them.
+type Bounds = Vec<(String, Option<f64>, Option<f64>)>;
+
+impl Checker<'_> {
+    /// `objective.constraints`: each a known response with `min:`, `max:` or both, and
+    /// a probability of passing a one-sided bound in (0, 0.5] when it is probabilistic.
+    fn constraints(
+        &self,
+        objective: &ObjectiveFile,
+        known: &impl Fn(&str, &str) -> Result<(), StudyError>,
+    ) -> Result<(Bounds, Vec<Option<f64>>), StudyError> {
+        let mut constraints = Vec::new();
+        let mut probabilities = Vec::new();
+        for (i, c) in objective.constraints.iter().enumerate() {
+            let at = format!("objective.constraints[{i}]");
+            known(&format!("{at}.response"), &c.response)?;
+            if c.min.is_none() && c.max.is_none() {
+                return Err(self.error(&at, "expected `min:`, `max:` or both"));
+            }
+            if let Some(p) = c.probability {
+                if !(p > 0.0 && p <= 0.5) {
+                    return Err(self.error(
+                        &format!("{at}.probability"),
+                        format!("expected a probability of passing the bound in (0, 0.5], got {p}"),
+                    ));
+                }
+                if c.min.is_some() && c.max.is_some() {
+                    return Err(self.error(
+                        &format!("{at}.probability"),
+                        "a probabilistic bound takes `min:` or `max:`, not both; write two constraints",
+                    ));
+                }
+            }
+            constraints.push((c.response.clone(), c.min, c.max));
+            probabilities.push(c.probability);
+        }
+        Ok((constraints, probabilities))
     }
 }

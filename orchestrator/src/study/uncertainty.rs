@@ -228,6 +228,65 @@ impl Checker<'_> {
                 "expected at least one uncertain parameter",
             ));
         }
+        let noise = self.noise_design(file, materials, tolerances, half_width, study_seed)?;
+        Ok(UncertaintyConfig {
+            samples: file.samples,
+            seed: file.seed,
+            parameters,
+            noise,
+        })
+    }
+}
+
+impl Checker<'_> {
+    /// `uncertainty:` against the simulation's parameters (any name on a user's own
+    /// deck); the noise design's materials are rendered at their mean meanwhile, so
+    /// they join `fixed`.
+    pub(super) fn uncertainty_of(
+        &self,
+        file: &StudyFile,
+        simulation: &dyn Simulation,
+        factors: &[Factor],
+        fixed: &mut BTreeMap<String, f64>,
+    ) -> Result<Option<UncertaintyConfig>, StudyError> {
+        let specs = simulation.parameters();
+        let spec_of = |name: &str| specs.iter().find(|s| s.name == name);
+        let custom_template = simulation.accepts_undeclared_parameters();
+        let uncertainty = match &file.uncertainty {
+            None => None,
+            Some(u) => {
+                let known = |name: &str| -> Option<ParameterRange> {
+                    match spec_of(name) {
+                        Some(spec) => Some((spec.min, spec.max, spec.unit.to_string())),
+                        None if custom_template => {
+                            Some((f64::NEG_INFINITY, f64::INFINITY, String::new()))
+                        }
+                        None => None,
+                    }
+                };
+                let config = self.uncertainty(u, factors, &known, &file.fixed, file.seed)?;
+                // Materials are rendered at their mean while the design is optimised.
+                for material in config.noise.iter().flat_map(|n| &n.materials) {
+                    fixed.insert(material.name.clone(), mean_of(&material.distribution));
+                }
+                Some(config)
+            }
+        };
+        Ok(uncertainty)
+    }
+}
+
+impl Checker<'_> {
+    /// The noise design around the optimum over `materials` (parameters that are not
+    /// factors) and factors' `tolerances` (index, std), when there are any.
+    fn noise_design(
+        &self,
+        file: &file::UncertaintyFile,
+        materials: Vec<Material>,
+        tolerances: Vec<(usize, f64)>,
+        half_width: f64,
+        study_seed: u64,
+    ) -> Result<Option<NoiseDesign>, StudyError> {
         let noise = if materials.is_empty() && tolerances.is_empty() {
             if file.noise_design.is_some() {
                 return Err(self.error(
@@ -265,11 +324,6 @@ impl Checker<'_> {
                 runs,
             })
         };
-        Ok(UncertaintyConfig {
-            samples: file.samples,
-            seed: file.seed,
-            parameters,
-            noise,
-        })
+        Ok(noise)
     }
 }

@@ -264,177 +264,10 @@ impl Store {
         let mut tx = self.begin_write().await?;
         let round = record.round;
         for fit in &record.fits {
-            let (quality, error) = match &fit.result {
-                Ok(s) => (Some(s.quality()), None),
-                Err(e) => (None, Some(e.clone())),
-            };
-            let terms = fit.result.as_ref().map(|s| s.parameters()).unwrap_or(0);
-            let fit_id: i64 = sqlx::query(
-                "INSERT INTO fits (study_id, round, response, basis, ord, runs, terms, r2, adjusted_r2, sigma_cross,
-                                   r2_cross, press, residual_std, error, test_runs, sigma_test, r2_test,
-                                   model, spec, lack_of_fit_f, lack_of_fit_p, lack_of_fit_dof, pure_error_dof)
-                 VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?) RETURNING id",
-            )
-            .bind(study_id)
-            .bind(round)
-            .bind(&fit.response)
-            .bind(&fit.basis)
-            .bind(fit.order as i64)
-            .bind(fit.runs as i64)
-            .bind(terms as i64)
-            .bind(quality.map(|q| q.r2))
-            .bind(quality.and_then(|q| q.adjusted_r2))
-            .bind(quality.and_then(|q| q.sigma_cross_percent))
-            .bind(quality.and_then(|q| q.r2_cross))
-            .bind(quality.and_then(|q| q.press))
-            .bind(quality.and_then(|q| q.residual_std))
-            .bind(error)
-            .bind(fit.test.map(|t| t.0 as i64).unwrap_or(0))
-            .bind(fit.test.map(|t| t.1.sigma_test_rel_percent))
-            .bind(fit.test.map(|t| t.1.r2))
-            .bind(&fit.model)
-            .bind(&fit.spec)
-            .bind(fit.lack_of_fit.map(|l| l.f))
-            .bind(fit.lack_of_fit.map(|l| l.p))
-            .bind(fit.lack_of_fit.map(|l| l.lack_of_fit_dof as i64))
-            .bind(fit.lack_of_fit.map(|l| l.pure_error_dof as i64))
-            .fetch_one(&mut *tx)
-            .await
-            .map_err(query_error("record a fit"))?
-            .get(0);
-            if let Some(f) = fit.result.as_ref().ok().and_then(Surrogate::polynomial) {
-                for (idx, (name, coefficient)) in f.names.iter().zip(&f.coefficients).enumerate() {
-                    sqlx::query("INSERT INTO fit_terms (fit_id, idx, name, coefficient, std_error, t_value) VALUES (?, ?, ?, ?, ?, ?)")
-                        .bind(fit_id)
-                        .bind(idx as i64)
-                        .bind(name)
-                        .bind(coefficient)
-                        .bind(f.standard_errors.as_ref().map(|s| s[idx]))
-                        .bind(f.t_values.as_ref().map(|t| t[idx]).filter(|t| t.is_finite()))
-                        .execute(&mut *tx)
-                        .await
-                        .map_err(query_error("record a fit's terms"))?;
-                }
-            }
-            for (idx, c) in fit.candidates.iter().enumerate() {
-                sqlx::query("INSERT INTO fit_candidates (fit_id, idx, model, parameters, loo_rmse, chosen, note) VALUES (?, ?, ?, ?, ?, ?, ?)")
-                    .bind(fit_id)
-                    .bind(idx as i64)
-                    .bind(&c.model)
-                    .bind(c.parameters as i64)
-                    .bind(c.loo_rmse.filter(|v| v.is_finite()))
-                    .bind(c.chosen)
-                    .bind(&c.note)
-                    .execute(&mut *tx)
-                    .await
-                    .map_err(query_error("record a fit's candidates"))?;
-            }
-            for s in &fit.sensitivities {
-                sqlx::query("INSERT INTO sensitivities (fit_id, factor_idx, method, first, first_low, first_high, total, total_low, total_high) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)")
-                    .bind(fit_id)
-                    .bind(s.factor as i64)
-                    .bind(&s.method)
-                    .bind(s.first.0)
-                    .bind(s.first.1)
-                    .bind(s.first.2)
-                    .bind(s.total.0)
-                    .bind(s.total.1)
-                    .bind(s.total.2)
-                    .execute(&mut *tx)
-                    .await
-                    .map_err(query_error("record a fit's sensitivities"))?;
-            }
+            insert_fit(&mut tx, study_id, round, fit).await?;
         }
-        if let Some((response, goal, optimum, natural)) = &record.optimum {
-            sqlx::query("INSERT INTO optima (study_id, round, response, goal, value, exact, interval_low, interval_high) VALUES (?, ?, ?, ?, ?, ?, ?, ?)")
-                .bind(study_id)
-                .bind(round)
-                .bind(response)
-                .bind(goal)
-                .bind(optimum.value)
-                .bind(optimum.exact)
-                .bind(record.optimum_interval.map(|i| i.0))
-                .bind(record.optimum_interval.map(|i| i.1))
-                .execute(&mut *tx)
-                .await
-                .map_err(query_error("record an optimum"))?;
-            for (idx, (coded, natural)) in optimum.x.iter().zip(natural).enumerate() {
-                sqlx::query("INSERT INTO optimum_values (study_id, round, factor_idx, coded, natural) VALUES (?, ?, ?, ?, ?)")
-                    .bind(study_id)
-                    .bind(round)
-                    .bind(idx as i64)
-                    .bind(coded)
-                    .bind(natural)
-                    .execute(&mut *tx)
-                    .await
-                    .map_err(query_error("record an optimum"))?;
-            }
-        }
-        if let Some((response, spread, seed)) = &record.uncertainty {
-            sqlx::query(
-                "INSERT INTO uncertainty (study_id, round, response, samples, seed, mean, std, q025, q975, q05, q95,
-                                          total_mean, total_std, total_q025, total_q975, total_q05, total_q95)
-                 VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
-            )
-            .bind(study_id)
-            .bind(round)
-            .bind(response)
-            .bind(spread.samples as i64)
-            .bind(*seed as i64)
-            .bind(spread.mean)
-            .bind(spread.std)
-            .bind(spread.q025)
-            .bind(spread.q975)
-            .bind(spread.q05)
-            .bind(spread.q95)
-            .bind(record.uncertainty_total.map(|t| t.mean))
-            .bind(record.uncertainty_total.map(|t| t.std))
-            .bind(record.uncertainty_total.map(|t| t.q025))
-            .bind(record.uncertainty_total.map(|t| t.q975))
-            .bind(record.uncertainty_total.map(|t| t.q05))
-            .bind(record.uncertainty_total.map(|t| t.q95))
-            .execute(&mut *tx)
-            .await
-            .map_err(query_error("record an uncertainty"))?;
-        }
-        for (idx, point) in record.front.iter().enumerate() {
-            sqlx::query(
-                "INSERT INTO pareto_points (study_id, round, idx, compromise) VALUES (?, ?, ?, ?)",
-            )
-            .bind(study_id)
-            .bind(round)
-            .bind(idx as i64)
-            .bind(point.compromise)
-            .execute(&mut *tx)
-            .await
-            .map_err(query_error("record a Pareto front"))?;
-            for (objective_idx, (response, goal, value)) in point.objectives.iter().enumerate() {
-                sqlx::query("INSERT INTO pareto_objectives (study_id, round, idx, objective_idx, response, goal, value) VALUES (?, ?, ?, ?, ?, ?, ?)")
-                    .bind(study_id)
-                    .bind(round)
-                    .bind(idx as i64)
-                    .bind(objective_idx as i64)
-                    .bind(response)
-                    .bind(goal)
-                    .bind(value)
-                    .execute(&mut *tx)
-                    .await
-                    .map_err(query_error("record a Pareto front"))?;
-            }
-            for (factor_idx, (coded, natural)) in point.coded.iter().zip(&point.natural).enumerate()
-            {
-                sqlx::query("INSERT INTO pareto_factors (study_id, round, idx, factor_idx, coded, natural) VALUES (?, ?, ?, ?, ?, ?)")
-                    .bind(study_id)
-                    .bind(round)
-                    .bind(idx as i64)
-                    .bind(factor_idx as i64)
-                    .bind(coded)
-                    .bind(natural)
-                    .execute(&mut *tx)
-                    .await
-                    .map_err(query_error("record a Pareto front"))?;
-            }
-        }
+        insert_optimum_and_spread(&mut tx, study_id, round, record).await?;
+        insert_front(&mut tx, study_id, round, &record.front).await?;
         sqlx::query("INSERT INTO proposals (study_id, round, decision, note) VALUES (?, ?, ?, ?)")
             .bind(study_id)
             .bind(round)
@@ -470,94 +303,7 @@ impl Store {
         let mut rounds = Vec::new();
         for round in 0..=latest {
             let ranges = self.round_ranges(study_id, round).await?;
-            let fit_rows = sqlx::query(
-                "SELECT id, response, basis, ord, runs, r2, adjusted_r2, sigma_cross, r2_cross, press, error,
-                        test_runs, sigma_test, r2_test, model, spec, lack_of_fit_f, lack_of_fit_p,
-                        lack_of_fit_dof, pure_error_dof
-                 FROM fits WHERE study_id = ? AND round = ? ORDER BY id",
-            )
-            .bind(study_id)
-            .bind(round)
-            .fetch_all(&self.pool)
-            .await
-            .map_err(query_error("read fits"))?;
-            let mut fits = Vec::new();
-            for row in fit_rows {
-                let id: i64 = row.get(0);
-                let terms: Vec<(String, f64, Option<f64>, Option<f64>)> =
-                    sqlx::query_as("SELECT name, coefficient, std_error, t_value FROM fit_terms WHERE fit_id = ? ORDER BY idx")
-                        .bind(id)
-                        .fetch_all(&self.pool)
-                        .await
-                        .map_err(query_error("read a fit's terms"))?;
-                let candidates = sqlx::query(
-                    "SELECT model, parameters, loo_rmse, chosen, note FROM fit_candidates WHERE fit_id = ? ORDER BY idx",
-                )
-                .bind(id)
-                .fetch_all(&self.pool)
-                .await
-                .map_err(query_error("read a fit's candidates"))?
-                .into_iter()
-                .map(|r| CandidateScore {
-                    model: r.get(0),
-                    parameters: r.get::<i64, _>(1) as usize,
-                    loo_rmse: r.get(2),
-                    chosen: r.get(3),
-                    note: r.get(4),
-                })
-                .collect();
-                let sensitivities = sqlx::query(
-                    "SELECT factor_idx, method, first, first_low, first_high, total, total_low, total_high
-                     FROM sensitivities WHERE fit_id = ? ORDER BY factor_idx",
-                )
-                .bind(id)
-                .fetch_all(&self.pool)
-                .await
-                .map_err(query_error("read a fit's sensitivities"))?
-                .into_iter()
-                .map(|r| Sensitivity {
-                    factor: r.get::<i64, _>(0) as usize,
-                    method: r.get(1),
-                    first: (r.get(2), r.get(3), r.get(4)),
-                    total: (r.get(5), r.get(6), r.get(7)),
-                })
-                .collect();
-                let lack_of_fit = match (
-                    row.get::<Option<f64>, _>(16),
-                    row.get::<Option<f64>, _>(17),
-                    row.get::<Option<i64>, _>(18),
-                    row.get::<Option<i64>, _>(19),
-                ) {
-                    (Some(f), Some(p), Some(lof), Some(pe)) => Some(LackOfFitRow {
-                        f,
-                        p,
-                        lack_of_fit_dof: lof as usize,
-                        pure_error_dof: pe as usize,
-                    }),
-                    _ => None,
-                };
-                fits.push(StoredFit {
-                    model: row.get(14),
-                    spec: row.get(15),
-                    candidates,
-                    lack_of_fit,
-                    sensitivities,
-                    response: row.get(1),
-                    basis: row.get(2),
-                    order: row.get(3),
-                    runs: row.get(4),
-                    r2: row.get(5),
-                    adjusted_r2: row.get(6),
-                    sigma_cross: row.get(7),
-                    r2_cross: row.get(8),
-                    press: row.get(9),
-                    error: row.get(10),
-                    test_runs: row.get(11),
-                    sigma_test: row.get(12),
-                    r2_test: row.get(13),
-                    terms,
-                });
-            }
+            let fits = self.round_fits(study_id, round).await?;
             let optimum: Option<OptimumRow> = sqlx::query_as(
                 "SELECT response, goal, value, interval_low, interval_high FROM optima WHERE study_id = ? AND round = ?",
             )
@@ -632,6 +378,100 @@ impl Store {
         Ok(rounds)
     }
 
+    /// The fits of one round, each with its terms, candidates, Sobol indices and
+    /// lack-of-fit test.
+    async fn round_fits(&self, study_id: i64, round: i64) -> Result<Vec<StoredFit>, StoreError> {
+        let fit_rows = sqlx::query(
+            "SELECT id, response, basis, ord, runs, r2, adjusted_r2, sigma_cross, r2_cross, press, error,
+                    test_runs, sigma_test, r2_test, model, spec, lack_of_fit_f, lack_of_fit_p,
+                    lack_of_fit_dof, pure_error_dof
+             FROM fits WHERE study_id = ? AND round = ? ORDER BY id",
+        )
+        .bind(study_id)
+        .bind(round)
+        .fetch_all(&self.pool)
+        .await
+        .map_err(query_error("read fits"))?;
+        let mut fits = Vec::new();
+        for row in fit_rows {
+            let id: i64 = row.get(0);
+            let terms: Vec<(String, f64, Option<f64>, Option<f64>)> =
+                sqlx::query_as("SELECT name, coefficient, std_error, t_value FROM fit_terms WHERE fit_id = ? ORDER BY idx")
+                    .bind(id)
+                    .fetch_all(&self.pool)
+                    .await
+                    .map_err(query_error("read a fit's terms"))?;
+            let candidates = sqlx::query(
+                "SELECT model, parameters, loo_rmse, chosen, note FROM fit_candidates WHERE fit_id = ? ORDER BY idx",
+            )
+            .bind(id)
+            .fetch_all(&self.pool)
+            .await
+            .map_err(query_error("read a fit's candidates"))?
+            .into_iter()
+            .map(|r| CandidateScore {
+                model: r.get(0),
+                parameters: r.get::<i64, _>(1) as usize,
+                loo_rmse: r.get(2),
+                chosen: r.get(3),
+                note: r.get(4),
+            })
+            .collect();
+            let sensitivities = sqlx::query(
+                "SELECT factor_idx, method, first, first_low, first_high, total, total_low, total_high
+                 FROM sensitivities WHERE fit_id = ? ORDER BY factor_idx",
+            )
+            .bind(id)
+            .fetch_all(&self.pool)
+            .await
+            .map_err(query_error("read a fit's sensitivities"))?
+            .into_iter()
+            .map(|r| Sensitivity {
+                factor: r.get::<i64, _>(0) as usize,
+                method: r.get(1),
+                first: (r.get(2), r.get(3), r.get(4)),
+                total: (r.get(5), r.get(6), r.get(7)),
+            })
+            .collect();
+            let lack_of_fit = match (
+                row.get::<Option<f64>, _>(16),
+                row.get::<Option<f64>, _>(17),
+                row.get::<Option<i64>, _>(18),
+                row.get::<Option<i64>, _>(19),
+            ) {
+                (Some(f), Some(p), Some(lof), Some(pe)) => Some(LackOfFitRow {
+                    f,
+                    p,
+                    lack_of_fit_dof: lof as usize,
+                    pure_error_dof: pe as usize,
+                }),
+                _ => None,
+            };
+            fits.push(StoredFit {
+                model: row.get(14),
+                spec: row.get(15),
+                candidates,
+                lack_of_fit,
+                sensitivities,
+                response: row.get(1),
+                basis: row.get(2),
+                order: row.get(3),
+                runs: row.get(4),
+                r2: row.get(5),
+                adjusted_r2: row.get(6),
+                sigma_cross: row.get(7),
+                r2_cross: row.get(8),
+                press: row.get(9),
+                error: row.get(10),
+                test_runs: row.get(11),
+                sigma_test: row.get(12),
+                r2_test: row.get(13),
+                terms,
+            });
+        }
+        Ok(fits)
+    }
+
     /// The Pareto front stored for `round`, in order along it; empty when it has none.
     async fn front(&self, study_id: i64, round: i64) -> Result<Vec<FrontPoint>, StoreError> {
         let points: Vec<(i64, bool)> = sqlx::query_as(
@@ -674,4 +514,205 @@ impl Store {
             })
             .collect())
     }
+}
+
+/// One fit of a round: its figures, its polynomial's terms, the model choice's
+/// candidates and its Sobol indices.
+async fn insert_fit(
+    tx: &mut sqlx::SqliteConnection,
+    study_id: i64,
+    round: i64,
+    fit: &FitRecord,
+) -> Result<(), StoreError> {
+    let (quality, error) = match &fit.result {
+        Ok(s) => (Some(s.quality()), None),
+        Err(e) => (None, Some(e.clone())),
+    };
+    let terms = fit.result.as_ref().map(|s| s.parameters()).unwrap_or(0);
+    let fit_id: i64 = sqlx::query(
+        "INSERT INTO fits (study_id, round, response, basis, ord, runs, terms, r2, adjusted_r2, sigma_cross,
+                           r2_cross, press, residual_std, error, test_runs, sigma_test, r2_test,
+                           model, spec, lack_of_fit_f, lack_of_fit_p, lack_of_fit_dof, pure_error_dof)
+         VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?) RETURNING id",
+    )
+    .bind(study_id)
+    .bind(round)
+    .bind(&fit.response)
+    .bind(&fit.basis)
+    .bind(fit.order as i64)
+    .bind(fit.runs as i64)
+    .bind(terms as i64)
+    .bind(quality.map(|q| q.r2))
+    .bind(quality.and_then(|q| q.adjusted_r2))
+    .bind(quality.and_then(|q| q.sigma_cross_percent))
+    .bind(quality.and_then(|q| q.r2_cross))
+    .bind(quality.and_then(|q| q.press))
+    .bind(quality.and_then(|q| q.residual_std))
+    .bind(error)
+    .bind(fit.test.map(|t| t.0 as i64).unwrap_or(0))
+    .bind(fit.test.map(|t| t.1.sigma_test_rel_percent))
+    .bind(fit.test.map(|t| t.1.r2))
+    .bind(&fit.model)
+    .bind(&fit.spec)
+    .bind(fit.lack_of_fit.map(|l| l.f))
+    .bind(fit.lack_of_fit.map(|l| l.p))
+    .bind(fit.lack_of_fit.map(|l| l.lack_of_fit_dof as i64))
+    .bind(fit.lack_of_fit.map(|l| l.pure_error_dof as i64))
+    .fetch_one(&mut *tx)
+    .await
+    .map_err(query_error("record a fit"))?
+    .get(0);
+    if let Some(f) = fit.result.as_ref().ok().and_then(Surrogate::polynomial) {
+        for (idx, (name, coefficient)) in f.names.iter().zip(&f.coefficients).enumerate() {
+            sqlx::query("INSERT INTO fit_terms (fit_id, idx, name, coefficient, std_error, t_value) VALUES (?, ?, ?, ?, ?, ?)")
+                .bind(fit_id)
+                .bind(idx as i64)
+                .bind(name)
+                .bind(coefficient)
+                .bind(f.standard_errors.as_ref().map(|s| s[idx]))
+                .bind(f.t_values.as_ref().map(|t| t[idx]).filter(|t| t.is_finite()))
+                .execute(&mut *tx)
+                .await
+                .map_err(query_error("record a fit's terms"))?;
+        }
+    }
+    for (idx, c) in fit.candidates.iter().enumerate() {
+        sqlx::query("INSERT INTO fit_candidates (fit_id, idx, model, parameters, loo_rmse, chosen, note) VALUES (?, ?, ?, ?, ?, ?, ?)")
+            .bind(fit_id)
+            .bind(idx as i64)
+            .bind(&c.model)
+            .bind(c.parameters as i64)
+            .bind(c.loo_rmse.filter(|v| v.is_finite()))
+            .bind(c.chosen)
+            .bind(&c.note)
+            .execute(&mut *tx)
+            .await
+            .map_err(query_error("record a fit's candidates"))?;
+    }
+    for s in &fit.sensitivities {
+        sqlx::query("INSERT INTO sensitivities (fit_id, factor_idx, method, first, first_low, first_high, total, total_low, total_high) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)")
+            .bind(fit_id)
+            .bind(s.factor as i64)
+            .bind(&s.method)
+            .bind(s.first.0)
+            .bind(s.first.1)
+            .bind(s.first.2)
+            .bind(s.total.0)
+            .bind(s.total.1)
+            .bind(s.total.2)
+            .execute(&mut *tx)
+            .await
+            .map_err(query_error("record a fit's sensitivities"))?;
+    }
+    Ok(())
+}
+
+/// A round's optimum (with its interval and coordinates) and the spread of the
+/// response there under the uncertain inputs.
+async fn insert_optimum_and_spread(
+    tx: &mut sqlx::SqliteConnection,
+    study_id: i64,
+    round: i64,
+    record: &RoundRecord,
+) -> Result<(), StoreError> {
+    if let Some((response, goal, optimum, natural)) = &record.optimum {
+        sqlx::query("INSERT INTO optima (study_id, round, response, goal, value, exact, interval_low, interval_high) VALUES (?, ?, ?, ?, ?, ?, ?, ?)")
+            .bind(study_id)
+            .bind(round)
+            .bind(response)
+            .bind(goal)
+            .bind(optimum.value)
+            .bind(optimum.exact)
+            .bind(record.optimum_interval.map(|i| i.0))
+            .bind(record.optimum_interval.map(|i| i.1))
+            .execute(&mut *tx)
+            .await
+            .map_err(query_error("record an optimum"))?;
+        for (idx, (coded, natural)) in optimum.x.iter().zip(natural).enumerate() {
+            sqlx::query("INSERT INTO optimum_values (study_id, round, factor_idx, coded, natural) VALUES (?, ?, ?, ?, ?)")
+                .bind(study_id)
+                .bind(round)
+                .bind(idx as i64)
+                .bind(coded)
+                .bind(natural)
+                .execute(&mut *tx)
+                .await
+                .map_err(query_error("record an optimum"))?;
+        }
+    }
+    if let Some((response, spread, seed)) = &record.uncertainty {
+        sqlx::query(
+            "INSERT INTO uncertainty (study_id, round, response, samples, seed, mean, std, q025, q975, q05, q95,
+                                      total_mean, total_std, total_q025, total_q975, total_q05, total_q95)
+             VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+        )
+        .bind(study_id)
+        .bind(round)
+        .bind(response)
+        .bind(spread.samples as i64)
+        .bind(*seed as i64)
+        .bind(spread.mean)
+        .bind(spread.std)
+        .bind(spread.q025)
+        .bind(spread.q975)
+        .bind(spread.q05)
+        .bind(spread.q95)
+        .bind(record.uncertainty_total.map(|t| t.mean))
+        .bind(record.uncertainty_total.map(|t| t.std))
+        .bind(record.uncertainty_total.map(|t| t.q025))
+        .bind(record.uncertainty_total.map(|t| t.q975))
+        .bind(record.uncertainty_total.map(|t| t.q05))
+        .bind(record.uncertainty_total.map(|t| t.q95))
+        .execute(&mut *tx)
+        .await
+        .map_err(query_error("record an uncertainty"))?;
+    }
+    Ok(())
+}
+
+/// A round's Pareto front: each point's objectives and coordinates.
+async fn insert_front(
+    tx: &mut sqlx::SqliteConnection,
+    study_id: i64,
+    round: i64,
+    front: &[FrontPoint],
+) -> Result<(), StoreError> {
+    for (idx, point) in front.iter().enumerate() {
+        sqlx::query(
+            "INSERT INTO pareto_points (study_id, round, idx, compromise) VALUES (?, ?, ?, ?)",
+        )
+        .bind(study_id)
+        .bind(round)
+        .bind(idx as i64)
+        .bind(point.compromise)
+        .execute(&mut *tx)
+        .await
+        .map_err(query_error("record a Pareto front"))?;
+        for (objective_idx, (response, goal, value)) in point.objectives.iter().enumerate() {
+            sqlx::query("INSERT INTO pareto_objectives (study_id, round, idx, objective_idx, response, goal, value) VALUES (?, ?, ?, ?, ?, ?, ?)")
+                .bind(study_id)
+                .bind(round)
+                .bind(idx as i64)
+                .bind(objective_idx as i64)
+                .bind(response)
+                .bind(goal)
+                .bind(value)
+                .execute(&mut *tx)
+                .await
+                .map_err(query_error("record a Pareto front"))?;
+        }
+        for (factor_idx, (coded, natural)) in point.coded.iter().zip(&point.natural).enumerate() {
+            sqlx::query("INSERT INTO pareto_factors (study_id, round, idx, factor_idx, coded, natural) VALUES (?, ?, ?, ?, ?, ?)")
+                .bind(study_id)
+                .bind(round)
+                .bind(idx as i64)
+                .bind(factor_idx as i64)
+                .bind(coded)
+                .bind(natural)
+                .execute(&mut *tx)
+                .await
+                .map_err(query_error("record a Pareto front"))?;
+        }
+    }
+    Ok(())
 }

@@ -38,50 +38,10 @@ pub(super) async fn compare(
     suite_file: &Path,
     args: &CompareArgs,
 ) -> anyhow::Result<i32> {
-    use crate::compare::{self, history, RunOptions, Suite, Verdict, NATIVE};
+    use crate::compare::{self, history, RunOptions, Suite, Verdict};
     let suite = Suite::load(suite_file).map_err(|e| input_error(e.to_string()))?;
     let perturbation = perturbation(&args.perturb)?;
-    let mut solvers = Vec::new();
-    for name in &args.solvers {
-        solvers.push(known_solver(name)?);
-    }
-    if !args.solvers.iter().any(|s| s == NATIVE) || solvers.len() < 2 {
-        return Err(input_error(
-            "--solvers: name `native` and at least one reference, e.g. native,liggghts",
-        ));
-    }
-    for case in suite.selected(args.quick) {
-        let equipment = orch_adapters::equipment_for(&case.equipment).expect("checked");
-        for name in perturbation.keys() {
-            if !equipment
-                .parameters()
-                .iter()
-                .any(|p| p.name == name.as_str())
-            {
-                return Err(input_error(format!(
-                    "--perturb {name}: not a parameter of {} (case `{}`)",
-                    case.equipment, case.name
-                )));
-            }
-        }
-        for solver in &solvers {
-            if solver.template_for(&case.equipment).is_none() {
-                return Err(input_error(format!(
-                    "{} cannot simulate {} (case `{}`)",
-                    solver.name, case.equipment, case.name
-                )));
-            }
-        }
-    }
-    for solver in solvers.iter().filter(|s| s.name != NATIVE) {
-        let program = (solver.command)("probe", 1).program;
-        if !program_exists(&program) {
-            return Err(input_error(format!(
-                "{} is not installed (`{program}` is not on PATH): {}",
-                solver.name, solver.install_hint
-            )));
-        }
-    }
+    let solvers = checked_solvers(&suite, args, &perturbation)?;
     let project = project::for_study_file(suite_file, project_dir).with_context(|| {
         format!(
             "cannot resolve the project directory of {}",
@@ -206,4 +166,57 @@ pub(super) async fn compare(
     } else {
         exit_codes::SUCCESS
     })
+}
+
+/// The solvers `--solvers` names: `native` and at least one installed reference, each
+/// with a template for every selected case, whose equipment has every parameter
+/// `--perturb` names.
+fn checked_solvers(
+    suite: &crate::compare::Suite,
+    args: &CompareArgs,
+    perturbation: &std::collections::BTreeMap<String, f64>,
+) -> anyhow::Result<Vec<&'static orch_adapters::DemSolver>> {
+    use crate::compare::NATIVE;
+    let mut solvers = Vec::new();
+    for name in &args.solvers {
+        solvers.push(known_solver(name)?);
+    }
+    if !args.solvers.iter().any(|s| s == NATIVE) || solvers.len() < 2 {
+        return Err(input_error(
+            "--solvers: name `native` and at least one reference, e.g. native,liggghts",
+        ));
+    }
+    for case in suite.selected(args.quick) {
+        let equipment = orch_adapters::equipment_for(&case.equipment).expect("checked");
+        for name in perturbation.keys() {
+            if !equipment
+                .parameters()
+                .iter()
+                .any(|p| p.name == name.as_str())
+            {
+                return Err(input_error(format!(
+                    "--perturb {name}: not a parameter of {} (case `{}`)",
+                    case.equipment, case.name
+                )));
+            }
+        }
+        for solver in &solvers {
+            if solver.template_for(&case.equipment).is_none() {
+                return Err(input_error(format!(
+                    "{} cannot simulate {} (case `{}`)",
+                    solver.name, case.equipment, case.name
+                )));
+            }
+        }
+    }
+    for solver in solvers.iter().filter(|s| s.name != NATIVE) {
+        let program = (solver.command)("probe", 1).program;
+        if !program_exists(&program) {
+            return Err(input_error(format!(
+                "{} is not installed (`{program}` is not on PATH): {}",
+                solver.name, solver.install_hint
+            )));
+        }
+    }
+    Ok(solvers)
 }

@@ -446,6 +446,37 @@ impl Checker<'_> {
                 }
             }
         };
+        self.fields_fit_the_source(at, declared, &source)?;
+        let (pick, reduce) = self.pick_and_reduction(at, declared)?;
+        if let (Some(from), Some(to)) = (declared.from, declared.to) {
+            if from > to {
+                return Err(self.error(
+                    &field("to"),
+                    format!("expected `to` ≥ `from` ({from}), got {to}"),
+                ));
+            }
+        }
+        Ok(DeclaredResponse {
+            name: name.clone(),
+            unit: declared.unit.clone().unwrap_or_default(),
+            source,
+            reduce,
+            from: declared.from,
+            to: declared.to,
+            pick,
+            interval: declared.interval.clone(),
+        })
+    }
+
+    /// Refuses a key that does not apply to the response's source (`column:` without
+    /// `table:`, `pick:` on one file, …) and a glob that cannot match.
+    fn fields_fit_the_source(
+        &self,
+        at: &str,
+        declared: &DeclaredResponseFile,
+        source: &Source,
+    ) -> Result<(), StudyError> {
+        let field = |name: &str| format!("{at}.{name}");
         let misplaced = [
             (
                 "column",
@@ -488,6 +519,16 @@ impl Checker<'_> {
                 return Err(self.error(&field(which), why));
             }
         }
+        Ok(())
+    }
+
+    /// The response's `pick:` among a glob's files and its `reduce:`, by name.
+    fn pick_and_reduction(
+        &self,
+        at: &str,
+        declared: &DeclaredResponseFile,
+    ) -> Result<(Pick, Reduction), StudyError> {
+        let field = |name: &str| format!("{at}.{name}");
         let pick = match &declared.pick {
             None => Pick::default(),
             Some(name) => Pick::from_name(name).ok_or_else(|| {
@@ -514,24 +555,7 @@ impl Checker<'_> {
                 )
             })?,
         };
-        if let (Some(from), Some(to)) = (declared.from, declared.to) {
-            if from > to {
-                return Err(self.error(
-                    &field("to"),
-                    format!("expected `to` ≥ `from` ({from}), got {to}"),
-                ));
-            }
-        }
-        Ok(DeclaredResponse {
-            name: name.clone(),
-            unit: declared.unit.clone().unwrap_or_default(),
-            source,
-            reduce,
-            from: declared.from,
-            to: declared.to,
-            pick,
-            interval: declared.interval.clone(),
-        })
+        Ok((pick, reduce))
     }
 
     /// Refuses a second file of the same name in the run directory.

@@ -153,11 +153,6 @@ async fn analyse(
     round: i64,
 ) -> Result<RoundRecord, StoreError> {
     let ranges = store.round_ranges(study_id, round).await?;
-    let names: Vec<String> = study.factors.iter().map(|f| f.name.clone()).collect();
-    let basis_name = match study.metamodel.basis {
-        BasisKind::Legendre => "legendre",
-        BasisKind::Monomial => "monomial",
-    };
     let responses = fitted_responses(study);
     // A response whose runs also report its 95 % interval (its spec's `interval`, as
     // the hopper's discharge rate has) tells Kriging its run-to-run noise.
@@ -170,43 +165,7 @@ async fn analyse(
     let data = observed(store, study_id, round, &with_intervals, leveled).await?;
     let options = study.metamodel.kriging_options(study.seed);
     let previous = previous_length_scales(store, study_id, round, &ranges).await?;
-    let mut fits = Vec::new();
-    for response in &responses {
-        let observed = &data[response];
-        let (x, y) = (&observed.design.0, &observed.design.1);
-        let options = KrigingOptions {
-            previous_length_scales: previous.get(response).cloned(),
-            ..options.clone()
-        };
-        if leveled {
-            // Each level's noise is its own (its replicates', else fitted).
-            let choice = choose_co_kriging(x, y, &options);
-            fits.push(fit_record(
-                response, basis_name, observed, choice, study.seed,
-            ));
-            continue;
-        }
-        let intervals = study.interval_of(response).and_then(|name| data.get(name));
-        let options = match intervals.and_then(|intervals| noise_from_intervals(x, y, intervals)) {
-            Some(variance) => KrigingOptions {
-                nugget: Nugget::Fixed(variance),
-                ..options
-            },
-            None => options,
-        };
-        let choice = choose(
-            study.metamodel.model,
-            study.metamodel.basis,
-            &names,
-            &study.levels(),
-            x,
-            y,
-            &options,
-        );
-        fits.push(fit_record(
-            response, basis_name, observed, choice, study.seed,
-        ));
-    }
+    let fits = fit_responses(study, &responses, &data, &previous, &options);
 
     let mut record = RoundRecord {
         round,
@@ -292,16 +251,9 @@ async fn analyse(
         constrained.push_str(line);
     }
 
-    let previous = if round > 0 {
-        store
-            .rounds(study_id)
-            .await?
-            .into_iter()
-            .find(|r| r.round == round - 1)
-            .and_then(|r| r.optimum)
-    } else {
-        None
-    };
+    let previous = previous_round(store, study_id, round)
+        .await?
+        .and_then(|r| r.optimum);
     if round + 1 >= study.rounds as i64 {
         record.note = format!(
             "round {} of {} was the last{constrained}",
@@ -340,6 +292,78 @@ async fn analyse(
         record.next = Some((next.ranges, next.points, tests));
     }
     Ok(record)
+}
+
+/// Each response's surface on the round's design runs, with the previous round's
+/// length scales as a start: co-Kriging over fidelity levels, else the study's model
+/// choice, told each run's noise where the runs report their intervals.
+fn fit_responses(
+    study: &Study,
+    responses: &[String],
+    data: &HashMap<String, Observed>,
+    previous: &HashMap<String, Vec<f64>>,
+    options: &KrigingOptions,
+) -> Vec<FitRecord> {
+    let names: Vec<String> = study.factors.iter().map(|f| f.name.clone()).collect();
+    let leveled = !study.fidelities.is_empty();
+    let basis_name = match study.metamodel.basis {
+        BasisKind::Legendre => "legendre",
+        BasisKind::Monomial => "monomial",
+    };
+    let mut fits = Vec::new();
+    for response in responses {
+        let observed = &data[response];
+        let (x, y) = (&observed.design.0, &observed.design.1);
+        let options = KrigingOptions {
+            previous_length_scales: previous.get(response).cloned(),
+            ..options.clone()
+        };
+        if leveled {
+            // Each level's noise is its own (its replicates', else fitted).
+            let choice = choose_co_kriging(x, y, &options);
+            fits.push(fit_record(
+                response, basis_name, observed, choice, study.seed,
+            ));
+            continue;
+        }
+        let intervals = study.interval_of(response).and_then(|name| data.get(name));
+        let options = match intervals.and_then(|intervals| noise_from_intervals(x, y, intervals)) {
+            Some(variance) => KrigingOptions {
+                nugget: Nugget::Fixed(variance),
+                ..options
+            },
+            None => options,
+        };
+        let choice = choose(
+            study.metamodel.model,
+            study.metamodel.basis,
+            &names,
+            &study.levels(),
+            x,
+            y,
+            &options,
+        );
+        fits.push(fit_record(
+            response, basis_name, observed, choice, study.seed,
+        ));
+    }
+    fits
+}
+
+/// The round before `round`, as the store holds it (none before the first).
+async fn previous_round(
+    store: &Store,
+    study_id: i64,
+    round: i64,
+) -> Result<Option<crate::store::StoredRound>, StoreError> {
+    if round == 0 {
+        return Ok(None);
+    }
+    Ok(store
+        .rounds(study_id)
+        .await?
+        .into_iter()
+        .find(|r| r.round == round - 1))
 }
 
 /// The value of the previous round's optimum (a compromise point's first objective),

@@ -139,7 +139,6 @@ pub(super) fn analyse_front(
     previous: Option<f64>,
     record: &mut RoundRecord,
 ) {
-    let limits: Vec<FactorRange> = study.factors.iter().map(|f| f.range).collect();
     let to_natural = |coded: &[f64]| -> Vec<f64> { study.point(coded.to_vec(), ranges).natural };
 
     // Uncertain factors are held at their mean, as for a single objective.
@@ -211,30 +210,14 @@ pub(super) fn analyse_front(
     record.optimum_interval = first
         .prediction_interval(&optimum.x, 0.95)
         .map(|i| (i.low, i.high));
-    if let Some(u) = &study.uncertainty {
-        let inputs: Vec<Distribution> = u.parameters.iter().map(|(_, d)| *d).collect();
-        let point = |sample: &[f64]| {
-            let mut x = optimum.x.clone();
-            for ((index, _), v) in u.parameters.iter().zip(sample) {
-                x[*index] = ranges[*index].to_coded(*v);
-            }
-            x
-        };
-        if let Ok(spread) = propagate(
-            &|s: &[f64]| first.predict(&point(s)),
-            &inputs,
-            u.samples,
-            u.seed,
-        ) {
-            record.uncertainty = Some((objective.objectives[0].0.clone(), spread, u.seed));
-        }
-        let with_error = |s: &[f64]| {
-            let x = point(s);
-            (first.predict(&x), first.mean_std(&x).unwrap_or(0.0))
-        };
-        record.uncertainty_total =
-            propagate_with_error(&with_error, &inputs, u.samples, u.seed).ok();
-    }
+    spread_at_compromise(
+        study,
+        first,
+        &optimum.x,
+        ranges,
+        &objective.objectives[0].0,
+        record,
+    );
     record.optimum = Some((objective.name(), "pareto", optimum.clone(), natural.clone()));
 
     let at_point: Vec<String> = objective
@@ -267,34 +250,14 @@ pub(super) fn analyse_front(
             study.metamodel.tolerance * 100.0
         );
     } else {
-        // Design factors zoom in around the compromise point; uncertain ones keep their range.
-        let mut next_ranges = study.text_kept_whole(shrink_around(
+        let (next_ranges, next_points, n_samples) = next_box_and_points(
+            study,
+            objective,
+            &record.front,
             &natural,
             ranges,
-            &limits,
-            study.metamodel.shrink,
-        ));
-        for (index, _) in &uncertain {
-            next_ranges[*index] = ranges[*index];
-        }
-        let design = study
-            .coded_design(&study.design)
-            .expect("the design was built for round 0");
-        let mut next_points: Vec<DesignPoint> = design
-            .into_iter()
-            .map(|coded| study.point(coded, &next_ranges))
-            .collect();
-        let samples = front_samples(
-            &record.front,
-            &next_ranges,
-            objective.front_points.min(MAX_FRONT_SAMPLES),
-            &next_points,
-            &study.levels(),
+            &uncertain,
         );
-        let n_samples = samples.len();
-        next_points.extend(samples);
-        // Over fidelity levels, nested subsets of them run at the higher levels.
-        let next_points = crate::study::nested_points(next_points, &study.fidelities);
         let next_tests = study.test_points(round + 1, &next_ranges);
         record.decision = Decision::NextRound;
         record.note = format!(
@@ -304,6 +267,85 @@ pub(super) fn analyse_front(
         );
         record.next = Some((next_ranges, next_points, next_tests));
     }
+}
+
+/// The spread of the first objective at the compromise point `x` (coded) under the
+/// uncertain factors, without and with the surface's own error.
+fn spread_at_compromise(
+    study: &Study,
+    first: &Surrogate,
+    x: &[f64],
+    ranges: &[FactorRange],
+    first_name: &str,
+    record: &mut RoundRecord,
+) {
+    if let Some(u) = &study.uncertainty {
+        let inputs: Vec<Distribution> = u.parameters.iter().map(|(_, d)| *d).collect();
+        let point = |sample: &[f64]| {
+            let mut x = x.to_vec();
+            for ((index, _), v) in u.parameters.iter().zip(sample) {
+                x[*index] = ranges[*index].to_coded(*v);
+            }
+            x
+        };
+        if let Ok(spread) = propagate(
+            &|s: &[f64]| first.predict(&point(s)),
+            &inputs,
+            u.samples,
+            u.seed,
+        ) {
+            record.uncertainty = Some((first_name.to_string(), spread, u.seed));
+        }
+        let with_error = |s: &[f64]| {
+            let x = point(s);
+            (first.predict(&x), first.mean_std(&x).unwrap_or(0.0))
+        };
+        record.uncertainty_total =
+            propagate_with_error(&with_error, &inputs, u.samples, u.seed).ok();
+    }
+}
+
+/// The next round's box around the compromise point (`natural`; uncertain factors
+/// keep their range), its design and the front points sampled into it, nested over
+/// fidelity levels; and how many front points were added.
+fn next_box_and_points(
+    study: &Study,
+    objective: &Objective,
+    front: &[FrontPoint],
+    natural: &[f64],
+    ranges: &[FactorRange],
+    uncertain: &[(usize, Distribution)],
+) -> (Vec<FactorRange>, Vec<DesignPoint>, usize) {
+    let limits: Vec<FactorRange> = study.factors.iter().map(|f| f.range).collect();
+    // Design factors zoom in around the compromise point; uncertain ones keep their range.
+    let mut next_ranges = study.text_kept_whole(shrink_around(
+        natural,
+        ranges,
+        &limits,
+        study.metamodel.shrink,
+    ));
+    for (index, _) in uncertain {
+        next_ranges[*index] = ranges[*index];
+    }
+    let design = study
+        .coded_design(&study.design)
+        .expect("the design was built for round 0");
+    let mut next_points: Vec<DesignPoint> = design
+        .into_iter()
+        .map(|coded| study.point(coded, &next_ranges))
+        .collect();
+    let samples = front_samples(
+        front,
+        &next_ranges,
+        objective.front_points.min(MAX_FRONT_SAMPLES),
+        &next_points,
+        &study.levels(),
+    );
+    let n_samples = samples.len();
+    next_points.extend(samples);
+    // Over fidelity levels, nested subsets of them run at the higher levels.
+    let next_points = crate::study::nested_points(next_points, &study.fidelities);
+    (next_ranges, next_points, n_samples)
 }
 
 #[cfg(test)]

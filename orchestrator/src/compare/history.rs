@@ -289,65 +289,7 @@ pub fn page(history: &[StoredComparison]) -> String {
         .filter(|c| c.record.perturbation.is_empty())
         .collect();
     if clean.len() >= 2 {
-        body.push_str("<h2>Over time</h2>\n");
-        let mut agreement: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
-        let mut ratio: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
-        for c in &clean {
-            let t = days(c.record.started_at);
-            for r in c
-                .responses
-                .iter()
-                .filter(|r| r.relative_difference.is_finite())
-            {
-                agreement
-                    .entry(format!(
-                        "{} {} / {}",
-                        r.case, r.response, r.reference_solver
-                    ))
-                    .or_default()
-                    .push((t, 100.0 * r.relative_difference));
-            }
-            for s in c.speeds.iter().filter(|s| s.solver != NATIVE) {
-                let native = c
-                    .speeds
-                    .iter()
-                    .find(|n| n.case == s.case && n.solver == NATIVE)
-                    .map_or(f64::NAN, |n| n.particle_steps_per_s);
-                let value = native / s.particle_steps_per_s;
-                if value.is_finite() {
-                    ratio
-                        .entry(format!("{} native / {}", s.case, s.solver))
-                        .or_default()
-                        .push((t, value));
-                }
-            }
-        }
-        let agreement: Vec<(String, Vec<(f64, f64)>)> = agreement.into_iter().collect();
-        let ratio: Vec<(String, Vec<(f64, f64)>)> = ratio.into_iter().collect();
-        body.push_str(&html::figure(
-            &plots::lines(
-                "relative difference",
-                "days since 1970",
-                "native − reference, %",
-                &agreement,
-                &[],
-                None,
-                900,
-            ),
-            "Relative difference of each response, native against reference, per run.",
-        ));
-        body.push_str(&html::figure(
-            &plots::lines(
-                "speed ratio",
-                "days since 1970",
-                "native / reference throughput",
-                &ratio,
-                &[],
-                None,
-                900,
-            ),
-            "Throughput of the native kernel over the reference's, measured in the same run.",
-        ));
+        body.push_str(&over_time(&clean));
     }
     let history_headers: Vec<String> = [
         "run",
@@ -384,6 +326,72 @@ pub fn page(history: &[StoredComparison]) -> String {
     body.push_str("<h2>Every run</h2>\n");
     body.push_str(&html::table(&history_headers, &history_rows));
     html::page("orch compare", &body)
+}
+
+/// The "Over time" section: each response's relative difference and the throughput
+/// ratio, per clean (unperturbed) run.
+fn over_time(clean: &[&StoredComparison]) -> String {
+    let mut body = String::new();
+    body.push_str("<h2>Over time</h2>\n");
+    let mut agreement: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
+    let mut ratio: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
+    for c in clean {
+        let t = days(c.record.started_at);
+        for r in c
+            .responses
+            .iter()
+            .filter(|r| r.relative_difference.is_finite())
+        {
+            agreement
+                .entry(format!(
+                    "{} {} / {}",
+                    r.case, r.response, r.reference_solver
+                ))
+                .or_default()
+                .push((t, 100.0 * r.relative_difference));
+        }
+        for s in c.speeds.iter().filter(|s| s.solver != NATIVE) {
+            let native = c
+                .speeds
+                .iter()
+                .find(|n| n.case == s.case && n.solver == NATIVE)
+                .map_or(f64::NAN, |n| n.particle_steps_per_s);
+            let value = native / s.particle_steps_per_s;
+            if value.is_finite() {
+                ratio
+                    .entry(format!("{} native / {}", s.case, s.solver))
+                    .or_default()
+                    .push((t, value));
+            }
+        }
+    }
+    let agreement: Vec<(String, Vec<(f64, f64)>)> = agreement.into_iter().collect();
+    let ratio: Vec<(String, Vec<(f64, f64)>)> = ratio.into_iter().collect();
+    body.push_str(&html::figure(
+        &plots::lines(
+            "relative difference",
+            "days since 1970",
+            "native − reference, %",
+            &agreement,
+            &[],
+            None,
+            900,
+        ),
+        "Relative difference of each response, native against reference, per run.",
+    ));
+    body.push_str(&html::figure(
+        &plots::lines(
+            "speed ratio",
+            "days since 1970",
+            "native / reference throughput",
+            &ratio,
+            &[],
+            None,
+            900,
+        ),
+        "Throughput of the native kernel over the reference's, measured in the same run.",
+    ));
+    body
 }
 
 #[cfg(test)]

@@ -220,7 +220,6 @@ pub fn choose(
     y: &[f64],
     kriging: &KrigingOptions,
 ) -> Result<Choice, String> {
-    let has_text = levels.iter().any(|&l| l > 0);
     let k = factor_names.len();
     let mut fitted: Vec<(Candidate, Option<Surrogate>)> = Vec::new();
     // Per candidate, the leave-one-out residuals it is scored by, when they are not its
@@ -274,45 +273,8 @@ pub fn choose(
         });
     }
     if matches!(model, ModelChoice::Auto | ModelChoice::Kriging) {
-        let mut name = kriging_name(kriging.kernel, kriging.trend);
-        if has_text {
-            name.push_str(", one per level");
-        }
         repeated.push(None);
-        let fit = if y.len() > MAX_KRIGING_RUNS {
-            Err(format!(
-                "not fitted: {} runs, more than the {MAX_KRIGING_RUNS} Kriging is fitted to (its cost grows as the cube of the runs)",
-                y.len()
-            ))
-        } else if has_text {
-            KrigingPerLevel::fit(levels, x, y, kriging)
-                .map(|m| Surrogate::KrigingPerLevel(Box::new(m)))
-        } else {
-            Kriging::fit(x, y, kriging)
-                .map(|m| Surrogate::kriging(m, y))
-                .map_err(|e| e.to_string())
-        };
-        fitted.push(match fit {
-            Ok(surrogate) => {
-                let quality = surrogate.quality();
-                let candidate = Candidate {
-                    name,
-                    parameters: surrogate.parameters(),
-                    loo_rmse: quality.press.map(|p| (p / y.len() as f64).sqrt()),
-                    note: None,
-                };
-                (candidate, Some(surrogate))
-            }
-            Err(e) => (
-                Candidate {
-                    name,
-                    parameters: 0,
-                    loo_rmse: None,
-                    note: Some(e),
-                },
-                None,
-            ),
-        });
+        fitted.push(kriging_candidate(levels, x, y, kriging));
     }
 
     let scored = |i: usize| {
@@ -373,6 +335,54 @@ pub fn choose(
         chosen,
         by_prognosis,
     })
+}
+
+/// Kriging (one model per level of the text factors) as a candidate of the model
+/// choice: its leave-one-out error, or why it was not fitted.
+fn kriging_candidate(
+    levels: &[u32],
+    x: &[Vec<f64>],
+    y: &[f64],
+    kriging: &KrigingOptions,
+) -> (Candidate, Option<Surrogate>) {
+    let has_text = levels.iter().any(|&l| l > 0);
+    let mut name = kriging_name(kriging.kernel, kriging.trend);
+    if has_text {
+        name.push_str(", one per level");
+    }
+    let fit = if y.len() > MAX_KRIGING_RUNS {
+        Err(format!(
+            "not fitted: {} runs, more than the {MAX_KRIGING_RUNS} Kriging is fitted to (its cost grows as the cube of the runs)",
+            y.len()
+        ))
+    } else if has_text {
+        KrigingPerLevel::fit(levels, x, y, kriging).map(|m| Surrogate::KrigingPerLevel(Box::new(m)))
+    } else {
+        Kriging::fit(x, y, kriging)
+            .map(|m| Surrogate::kriging(m, y))
+            .map_err(|e| e.to_string())
+    };
+    match fit {
+        Ok(surrogate) => {
+            let quality = surrogate.quality();
+            let candidate = Candidate {
+                name,
+                parameters: surrogate.parameters(),
+                loo_rmse: quality.press.map(|p| (p / y.len() as f64).sqrt()),
+                note: None,
+            };
+            (candidate, Some(surrogate))
+        }
+        Err(e) => (
+            Candidate {
+                name,
+                parameters: 0,
+                loo_rmse: None,
+                note: Some(e),
+            },
+            None,
+        ),
+    }
 }
 
 /// Most runs at which a pruned polynomial's leave-one-out residuals are computed by

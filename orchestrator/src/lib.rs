@@ -18,6 +18,7 @@ pub mod export;
 pub mod identity;
 pub mod keep;
 pub mod noise;
+pub mod numbers;
 pub mod output;
 pub mod plan;
 pub mod programs;

@@ -307,7 +307,7 @@ impl NoiseSummary {
             .find(|f| &f.response == response)
             .and_then(|f| f.model.clone())
             .unwrap_or_else(|| "no surrogate".into());
-        let n = crate::report::html::number;
+        let n = crate::numbers::number;
         let mut line = format!(
             "noise design `{}` over {} ({} runs, {model}): {response} {} at the optimum; 95 % interval [{}, {}]",
             self.study,

@@ -129,7 +129,7 @@ impl Verdict {
             Verdict::Predicts => None,
             Verdict::Constant { value } => Some(format!(
                 "{response} does not vary: it is {} in every run, so there is nothing to fit (R² and t-values mean nothing); choose factors that change it, or drop it from responses",
-                crate::report::html::number(*value)
+                crate::numbers::number(*value)
             )),
             Verdict::DoesNotPredict { r2_cross } => Some(format!(
                 "the surface of {response} does not predict: R²(σ_cross) {r2_cross:.2} < {MIN_R2_CROSS}, so neither its predictions nor an optimum on it are an answer; add runs or replicates, narrow the box, or lower the order"
@@ -201,10 +201,10 @@ pub fn limit_faces(natural: &[f64], factors: &[FactorRow]) -> Vec<String> {
             out.push(format!(
                 "the optimum lies on the {face} limit of {} ({} {}): the best may be beyond it; widen {}'s range {way} {} if the equipment allows",
                 f.name,
-                crate::report::html::number(limit),
+                crate::numbers::number(limit),
                 f.unit,
                 f.name,
-                crate::report::html::number(limit),
+                crate::numbers::number(limit),
             ));
         }
     }

@@ -215,3 +215,62 @@ fn no_job_path_branches_on_a_stage_kind() {
         offenders.join("\n")
     );
 }
+
+/// The orchestrator's top-level modules (`crate::<module>` paths in production code,
+/// comments left out) form no import circle: each can be read after the ones it uses.
+#[test]
+fn the_orchestrator_s_modules_form_no_import_circle() {
+    use std::collections::{BTreeMap, BTreeSet};
+    let src = root().join("orchestrator/src");
+    let mut uses: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
+    for (path, text) in production_sources(&src) {
+        let relative = path.strip_prefix(&src).unwrap();
+        let first = relative.components().next().unwrap().as_os_str();
+        let module = first.to_string_lossy().trim_end_matches(".rs").to_string();
+        if ["main", "lib", "bin"].contains(&module.as_str()) {
+            continue;
+        }
+        let used = uses.entry(module.clone()).or_default();
+        for line in text.lines().filter(|l| !l.trim_start().starts_with("//")) {
+            for (at, _) in line.match_indices("crate::") {
+                let name: String = line[at + 7..]
+                    .chars()
+                    .take_while(|c| c.is_ascii_alphanumeric() || *c == '_')
+                    .collect();
+                if !name.is_empty() && name != module {
+                    used.insert(name);
+                }
+            }
+        }
+    }
+    // Depth-first search for a path back to where it started.
+    fn circle(
+        from: &str,
+        at: &str,
+        uses: &BTreeMap<String, BTreeSet<String>>,
+        path: &mut Vec<String>,
+        seen: &mut BTreeSet<String>,
+    ) -> Option<Vec<String>> {
+        for next in uses.get(at).into_iter().flatten() {
+            if next == from {
+                let mut found = path.clone();
+                found.push(from.to_string());
+                return Some(found);
+            }
+            if uses.contains_key(next) && seen.insert(next.clone()) {
+                path.push(next.clone());
+                if let Some(found) = circle(from, next, uses, path, seen) {
+                    return Some(found);
+                }
+                path.pop();
+            }
+        }
+        None
+    }
+    for module in uses.keys() {
+        let mut path = vec![module.clone()];
+        if let Some(found) = circle(module, module, &uses, &mut path, &mut BTreeSet::new()) {
+            panic!("an import circle: {}", found.join(" → "));
+        }
+    }
+}

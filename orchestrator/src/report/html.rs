@@ -17,34 +17,7 @@ pub fn escape(text: &str) -> String {
     out
 }
 
-/// A number with four significant digits, in scientific notation when it is very
-/// small or large; `–` for NaN.
-pub fn number(v: f64) -> String {
-    if v.is_nan() {
-        return "–".into();
-    }
-    if v == 0.0 {
-        return "0".into();
-    }
-    if !v.is_finite() {
-        return if v > 0.0 {
-            "∞".into()
-        } else {
-            "−∞".into()
-        };
-    }
-    let magnitude = v.abs().log10().floor() as i32;
-    if !(-3..5).contains(&magnitude) {
-        return format!("{v:.3e}");
-    }
-    let decimals = (3 - magnitude).max(0) as usize;
-    let text = format!("{v:.decimals$}");
-    if text.contains('.') {
-        text.trim_end_matches('0').trim_end_matches('.').to_string()
-    } else {
-        text
-    }
-}
+pub use crate::numbers::number;
 
 /// A number and its unit (`0.0240 m`); the unit is left out when empty or `-`.
 pub fn with_unit(v: f64, unit: &str) -> String {

@@ -478,7 +478,7 @@ impl RunRows {
             Cell::Text(job.name.clone()),
             Cell::Text(job.kind.as_str().to_string()),
             Cell::Int(point.round),
-            Cell::Text(point.purpose.clone()),
+            Cell::Text(point.purpose.as_str().to_string()),
             Cell::Int(point.idx),
             Cell::Int(job.replicate),
             Cell::Int(job.seed),

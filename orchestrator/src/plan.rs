@@ -67,6 +67,37 @@ impl JobKind {
     }
 }
 
+/// What a point is for: fitted, or held out to test the fit (`points.purpose`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum PointRole {
+    /// A design point: its runs are fitted.
+    Design,
+    /// A held-out test point: its runs measure the fit's error.
+    Test,
+}
+
+impl PointRole {
+    /// The text `points.purpose` holds.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            PointRole::Design => "design",
+            PointRole::Test => "test",
+        }
+    }
+}
+
+impl std::str::FromStr for PointRole {
+    type Err = ();
+
+    fn from_str(text: &str) -> Result<Self, ()> {
+        match text {
+            "design" => Ok(PointRole::Design),
+            "test" => Ok(PointRole::Test),
+            _ => Err(()),
+        }
+    }
+}
+
 /// Whether points are fitted or held out to test the fit.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum PointPurpose {
@@ -81,12 +112,17 @@ pub enum PointPurpose {
 }
 
 impl PointPurpose {
+    /// What its points are for, as the store keeps it.
+    pub fn role(self) -> PointRole {
+        match self {
+            PointPurpose::Design => PointRole::Design,
+            PointPurpose::Test { .. } => PointRole::Test,
+        }
+    }
+
     /// `points.purpose` in the store.
     pub fn as_str(self) -> &'static str {
-        match self {
-            PointPurpose::Design => "design",
-            PointPurpose::Test { .. } => "test",
-        }
+        self.role().as_str()
     }
 
     /// The letter that starts its jobs' names.

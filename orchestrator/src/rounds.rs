@@ -104,7 +104,7 @@ async fn observed(
     let jobs = store.job_links(study_id).await?;
     let test_points: HashMap<i64, &[f64]> = points
         .iter()
-        .filter(|p| p.round == round && p.purpose == "test")
+        .filter(|p| p.round == round && p.purpose == crate::store::PointRole::Test)
         .map(|p| (p.id, p.coded.as_slice()))
         .collect();
     let test_jobs: Vec<&JobLinkRow> = jobs
@@ -917,7 +917,7 @@ rounds: 2
             .await
             .unwrap()
             .into_iter()
-            .filter(|p| p.round == 1 && p.purpose == "design")
+            .filter(|p| p.round == 1 && p.purpose == crate::store::PointRole::Design)
             .collect();
         assert_eq!(points.len(), 9 + 5);
         for extra in &points[9..] {

@@ -201,7 +201,7 @@ fn own_design_runs<J: JobLink>(
 ) -> BTreeMap<i64, Vec<Run>> {
     let points: HashMap<i64, &PointRow> = points
         .iter()
-        .filter(|p| p.purpose == "design")
+        .filter(|p| p.purpose == crate::store::PointRole::Design)
         .map(|p| (p.id, p))
         .collect();
     let mut out: BTreeMap<i64, Vec<Run>> = BTreeMap::new();
@@ -529,7 +529,7 @@ mod tests {
             id,
             round,
             idx: 0,
-            purpose: "design".into(),
+            purpose: crate::store::PointRole::Design,
             fidelity: 0,
             coded: vec![1.0],
             natural: vec![0.028],

@@ -267,7 +267,7 @@ async fn design_table(store: &Store, data: &Data<'_>, round: i64) -> Result<Stri
             let point = &points[&job.point_id];
             let mut row = vec![
                 escape(&job.name),
-                escape(&point.purpose),
+                escape(point.purpose.as_str()),
                 point.idx.to_string(),
                 job.replicate.to_string(),
                 escape(&match &job.reused_from {

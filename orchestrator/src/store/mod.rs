@@ -34,8 +34,8 @@ pub use rounds::{
     StoredRound,
 };
 pub use rows::{
-    Decision, FactorRow, JobKind, JobLink, JobLinkRow, JobRow, JobState, PointRow, ResponseValues,
-    StudyRow, StudyState, UnknownState, DESIGN_STAGE,
+    Decision, FactorRow, JobKind, JobLink, JobLinkRow, JobRow, JobState, PointRole, PointRow,
+    ResponseValues, StudyRow, StudyState, UnknownState, DESIGN_STAGE,
 };
 pub use series::{SeriesPages, SeriesPoint};
 
@@ -631,7 +631,7 @@ impl Store {
             .fetch_all(&self.pool)
             .await
             .map_err(query_error("list design points"))?;
-            let page = collect_points(rows);
+            let page = collect_points(rows)?;
             let whole = page.len() < PAGE_LEN;
             points.extend(page);
             if whole {
@@ -655,7 +655,7 @@ impl Store {
         .fetch_all(&self.pool)
         .await
         .map_err(query_error("read design points"))?;
-        Ok(collect_points(rows))
+        collect_points(rows)
     }
 
     /// The latest round that has jobs (0 for none) and its jobs, in id order: what the
@@ -1067,16 +1067,17 @@ fn responses_by_job_sql(n_names: usize, seek: bool) -> String {
 
 /// Design points from rows of `(id, round, idx, coded, natural, purpose)`, one row per
 /// factor, ordered by point and factor.
-fn collect_points(rows: Vec<sqlx::sqlite::SqliteRow>) -> Vec<PointRow> {
+fn collect_points(rows: Vec<sqlx::sqlite::SqliteRow>) -> Result<Vec<PointRow>, StoreError> {
     let mut points: Vec<PointRow> = Vec::new();
     for row in rows {
         let id: i64 = row.get(0);
         if points.last().is_none_or(|p| p.id != id) {
+            let purpose: String = row.get(5);
             points.push(PointRow {
                 id,
                 round: row.get(1),
                 idx: row.get(2),
-                purpose: row.get(5),
+                purpose: rows::parse_state_column("points", "purpose", id, purpose)?,
                 fidelity: row.get::<i64, _>(6) as u32,
                 coded: Vec::new(),
                 natural: Vec::new(),
@@ -1086,7 +1087,7 @@ fn collect_points(rows: Vec<sqlx::sqlite::SqliteRow>) -> Vec<PointRow> {
         point.coded.push(row.get(3));
         point.natural.push(row.get(4));
     }
-    points
+    Ok(points)
 }
 
 /// A value bound into a transition's assignments.

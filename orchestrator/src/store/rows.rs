@@ -95,9 +95,20 @@ pub(crate) fn parse_state<S: FromStr>(
     id: i64,
     value: String,
 ) -> Result<S, UnknownState> {
+    parse_state_column(table, "state", id, value)
+}
+
+/// Parses an enum column other than `state` (`points.purpose`), naming its row and
+/// column when unknown.
+pub(crate) fn parse_state_column<S: FromStr>(
+    table: &'static str,
+    column: &'static str,
+    id: i64,
+    value: String,
+) -> Result<S, UnknownState> {
     value.parse().map_err(|_| UnknownState {
         table,
-        column: "state",
+        column,
         id,
         value,
     })
@@ -391,7 +402,7 @@ pub struct JobRow {
     pub reused_from: Option<String>,
 }
 
-pub use crate::plan::{JobKind, DESIGN_STAGE};
+pub use crate::plan::{JobKind, PointRole, DESIGN_STAGE};
 
 impl JobRow {
     /// The kind of stage this job is, or `None` for a design job.
@@ -581,8 +592,8 @@ pub struct PointRow {
     pub round: i64,
     /// Index within the round.
     pub idx: i64,
-    /// `design` (fitted) or `test` (held out).
-    pub purpose: String,
+    /// Fitted or held out, decoded from `points.purpose`.
+    pub purpose: PointRole,
     /// Fidelity level (0 the cheapest; 0 in a study without levels).
     pub fidelity: u32,
     /// Coded values.

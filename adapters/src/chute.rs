@@ -339,8 +339,8 @@ impl Equipment for Chute {
             ("held_up_mass".to_string(), r.held_up_mass_kg),
         ];
         for (name, value) in [
-            ("impact_speed", r.impact_speed_m_s),
-            ("lip_speed", r.lip_speed_m_s),
+            ("impact_speed", r.impact_speed_m_per_s),
+            ("lip_speed", r.lip_speed_m_per_s),
             ("lip_angle", r.lip_angle_deg),
             ("stream_width", r.width_m),
             ("outer_fine_fraction", r.outer_fine_fraction),
@@ -386,7 +386,7 @@ pub fn stream_options(case: &Case) -> StreamOptions {
     StreamOptions {
         fine_type: 2,
         lip_height_m: case.get("drop_height"),
-        gravity_m_s2: GRAVITY_M_S2,
+        gravity_m_per_s2: GRAVITY_M_S2,
         fed_mass_kg: case.get("mass_rate") * case.get("feed_time"),
         outer_layer: OUTER_LAYER,
     }
@@ -690,9 +690,9 @@ mod tests {
         let mut sim = parsed.build(walls).unwrap();
         assert_eq!(sim.particles.len(), 0);
         let inflow = sim.inflows()[0].inflow().clone();
-        assert!((inflow.mass_rate_kg_s - 0.1).abs() < 1e-15);
+        assert!((inflow.mass_rate_kg_per_s - 0.1).abs() < 1e-15);
         assert!((inflow.end_s - 0.25).abs() < 1e-15);
-        assert!((inflow.velocity_m_s.norm() - 0.5).abs() < 1e-12);
+        assert!((inflow.velocity_m_per_s.norm() - 0.5).abs() < 1e-12);
         // The first batch lands inside the walls without touching them.
         for _ in 0..10 {
             sim.step().unwrap();

@@ -648,7 +648,7 @@ pub struct Pour {
 }
 
 /// The solid fraction of the stream leaving the pouring inlet that
-/// [`Pour::capacity_kg_s`] allows: random placement without overlaps fills a region to
+/// [`Pour::capacity_kg_per_s`] allows: random placement without overlaps fills a region to
 /// about 0.3 at best, so half of that leaves room for every batch.
 pub const POUR_SOLID_FRACTION: f64 = 0.15;
 
@@ -656,7 +656,7 @@ impl Pour {
     /// The largest mass rate the inlet passes, kg/s: particles leave its disk at
     /// `pour_speed` with a solid fraction of [`POUR_SOLID_FRACTION`]. A faster pour
     /// could not place every batch, and the bed would hold fewer particles than asked.
-    pub fn capacity_kg_s(&self, case: &Case) -> f64 {
+    pub fn capacity_kg_per_s(&self, case: &Case) -> f64 {
         POUR_SOLID_FRACTION
             * case.get("density")
             * std::f64::consts::PI
@@ -728,7 +728,7 @@ pub fn check(case: &Case) -> Result<(), RenderError> {
                 pour.end_s
             )));
         }
-        let capacity = pour.capacity_kg_s(case);
+        let capacity = pour.capacity_kg_per_s(case);
         if case.get("pour_rate") > capacity {
             return Err(RenderError::InvalidCase(format!(
                 "pour_rate ({} kg/s) exceeds what the inlet passes, {capacity:.4} kg/s (a solid fraction of {POUR_SOLID_FRACTION} through a {} m disk at pour_speed {} m/s); widen pour_diameter, raise pour_speed or lower pour_rate",

@@ -19,7 +19,7 @@ pub struct Air {
     /// Dynamic viscosity, Pa·s (1.8e-5 for air at 20 °C).
     pub viscosity_pa_s: Real,
     /// Its velocity, m/s (zero: still air).
-    pub velocity_m_s: Vec3,
+    pub velocity_m_per_s: Vec3,
 }
 
 /// The drag coefficient of a sphere at particle Reynolds number `re` (> 0).
@@ -32,17 +32,22 @@ pub fn drag_coefficient(re: Real) -> Real {
 }
 
 impl Air {
-    /// The drag force on a sphere of radius `radius_m` moving at `velocity_m_s`, N.
-    pub fn drag_n(&self, radius_m: Real, velocity_m_s: Vec3) -> Vec3 {
-        self.drag_in_n(self.velocity_m_s, radius_m, velocity_m_s)
+    /// The drag force on a sphere of radius `radius_m` moving at `velocity_m_per_s`, N.
+    pub fn drag_n(&self, radius_m: Real, velocity_m_per_s: Vec3) -> Vec3 {
+        self.drag_in_n(self.velocity_m_per_s, radius_m, velocity_m_per_s)
     }
 
-    /// The drag force on a sphere of radius `radius_m` moving at `velocity_m_s` where
-    /// this air (its density and viscosity) moves at `air_velocity_m_s` instead of its
+    /// The drag force on a sphere of radius `radius_m` moving at `velocity_m_per_s` where
+    /// this air (its density and viscosity) moves at `air_velocity_m_per_s` instead of its
     /// uniform velocity, N.
     #[inline]
-    pub fn drag_in_n(&self, air_velocity_m_s: Vec3, radius_m: Real, velocity_m_s: Vec3) -> Vec3 {
-        let relative = air_velocity_m_s - velocity_m_s;
+    pub fn drag_in_n(
+        &self,
+        air_velocity_m_per_s: Vec3,
+        radius_m: Real,
+        velocity_m_per_s: Vec3,
+    ) -> Vec3 {
+        let relative = air_velocity_m_per_s - velocity_m_per_s;
         let speed = relative.norm();
         if speed == 0.0 {
             return Vec3::zeros();
@@ -61,7 +66,7 @@ mod tests {
         Air {
             density_kg_m3: 1.2,
             viscosity_pa_s: 1.8e-5,
-            velocity_m_s: Vec3::zeros(),
+            velocity_m_per_s: Vec3::zeros(),
         }
     }
 
@@ -78,7 +83,7 @@ mod tests {
     #[test]
     fn drag_opposes_the_motion_relative_to_the_air() {
         let wind = Air {
-            velocity_m_s: Vec3::new(2.0, 0.0, 0.0),
+            velocity_m_per_s: Vec3::new(2.0, 0.0, 0.0),
             ..air()
         };
         // A particle at rest in a wind is pushed along it.

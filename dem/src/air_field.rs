@@ -35,7 +35,7 @@ pub struct AirField {
     /// Node coordinates along z, ascending, m.
     z_m: Vec<Real>,
     /// Velocity of node `(i, j, k)` at `(i * ny + j) * nz + k`, m/s.
-    velocity_m_s: Vec<Vec3>,
+    velocity_m_per_s: Vec<Vec3>,
 }
 
 /// What is wrong with a field's CSV text; the caller adds the file name.
@@ -65,7 +65,7 @@ fn at_line(line: usize, message: impl Into<String>) -> AirFieldError {
 struct Row {
     line: usize,
     position_m: [Real; 3],
-    velocity_m_s: Vec3,
+    velocity_m_per_s: Vec3,
 }
 
 const COLUMNS: [&str; 6] = ["x", "y", "z", "ux", "uy", "uz"];
@@ -168,13 +168,16 @@ impl AirField {
                 nodes.len()
             )));
         }
-        let velocity_m_s = nodes.iter().map(|&(_, k)| rows[k].velocity_m_s).collect();
+        let velocity_m_per_s = nodes
+            .iter()
+            .map(|&(_, k)| rows[k].velocity_m_per_s)
+            .collect();
         let [x_m, y_m, z_m] = axes;
         Ok(Self {
             x_m,
             y_m,
             z_m,
-            velocity_m_s,
+            velocity_m_per_s,
         })
     }
 
@@ -185,7 +188,7 @@ impl AirField {
         let (j, ty) = cell(&self.y_m, position_m.y)?;
         let (k, tz) = cell(&self.z_m, position_m.z)?;
         let (ny, nz) = (self.y_m.len(), self.z_m.len());
-        let node = |i: usize, j: usize, k: usize| self.velocity_m_s[(i * ny + j) * nz + k];
+        let node = |i: usize, j: usize, k: usize| self.velocity_m_per_s[(i * ny + j) * nz + k];
         // `(1 − t) a + t b` is exact at both ends, so nodes and faces get their values.
         let lerp = |a: Vec3, b: Vec3, t: Real| a * (1.0 - t) + b * t;
         let along_z = |i: usize, j: usize| lerp(node(i, j, k), node(i, j, k + 1), tz);
@@ -261,7 +264,7 @@ fn parse_row((line, text): (usize, &str)) -> Result<Row, AirFieldError> {
     Ok(Row {
         line,
         position_m: [values[0], values[1], values[2]],
-        velocity_m_s: Vec3::new(values[3], values[4], values[5]),
+        velocity_m_per_s: Vec3::new(values[3], values[4], values[5]),
     })
 }
 

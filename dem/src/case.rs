@@ -684,7 +684,7 @@ impl Case {
                 &sized,
                 Vec3::from(entry.position),
             );
-            particles.velocity_m_s[k] = Vec3::from(entry.velocity);
+            particles.velocity_m_per_s[k] = Vec3::from(entry.velocity);
             particles.angular_velocity[k] = Vec3::from(entry.angular_velocity);
         }
         Ok(particles)
@@ -748,8 +748,8 @@ impl Case {
         Ok(Inflow {
             region,
             mass_fractions: entry.mass_fractions.clone(),
-            mass_rate_kg_s: entry.mass_rate,
-            velocity_m_s: velocity,
+            mass_rate_kg_per_s: entry.mass_rate,
+            velocity_m_per_s: velocity,
             start_s: entry.start,
             end_s: entry.end,
             interval_s: interval,
@@ -816,7 +816,7 @@ impl Case {
                 start_s: start,
             },
             Some(MotionEntry::Translation { velocity, start }) => Motion::Translation {
-                velocity_m_s: Vec3::from(velocity),
+                velocity_m_per_s: Vec3::from(velocity),
                 start_s: start,
             },
         };
@@ -968,7 +968,7 @@ impl Case {
         let largest = self.largest_radius_m();
         let config = Config {
             timestep_s: self.timestep_s(),
-            gravity_m_s2: self.run.gravity.map(Vec3::from).unwrap_or(Vec3::new(
+            gravity_m_per_s2: self.run.gravity.map(Vec3::from).unwrap_or(Vec3::new(
                 0.0,
                 0.0,
                 -STANDARD_GRAVITY_M_S2,
@@ -977,13 +977,13 @@ impl Case {
             domain_min_m: Vec3::from(self.domain.min),
             domain_max_m: Vec3::from(self.domain.max),
             coplanar_angle_deg: self.run.coplanar_angle,
-            max_speed_m_s: self.run.max_speed,
+            max_speed_m_per_s: self.run.max_speed,
             max_overlap_ratio: self.run.max_overlap_ratio,
             wall_material: material(&self.wall_material),
             air: self.air.as_ref().map(|a| Air {
                 density_kg_m3: a.density,
                 viscosity_pa_s: a.viscosity,
-                velocity_m_s: Vec3::from(a.velocity),
+                velocity_m_per_s: Vec3::from(a.velocity),
             }),
             air_field,
         };

@@ -110,15 +110,15 @@ pub fn hertz_mindlin(
 }
 
 /// Hertz's duration of an elastic impact of two spheres at relative speed
-/// `speed_m_s`: `2.87 (m*² / (R* E*² v))^(1/5)`, s.
+/// `speed_m_per_s`: `2.87 (m*² / (R* E*² v))^(1/5)`, s.
 pub fn hertz_contact_time_s(
     effective_mass_kg: Real,
     effective_radius_m: Real,
     effective_youngs_pa: Real,
-    speed_m_s: Real,
+    speed_m_per_s: Real,
 ) -> Real {
     2.87 * (effective_mass_kg.powi(2)
-        / (effective_radius_m * effective_youngs_pa.powi(2) * speed_m_s))
+        / (effective_radius_m * effective_youngs_pa.powi(2) * speed_m_per_s))
         .powf(0.2)
 }
 

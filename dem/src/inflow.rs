@@ -31,9 +31,9 @@ pub struct Inflow {
     /// Mass fraction of each particle type, in type order; sums to 1.
     pub mass_fractions: Vec<Real>,
     /// Mass fed per second, kg/s.
-    pub mass_rate_kg_s: Real,
+    pub mass_rate_kg_per_s: Real,
     /// Velocity of every inserted particle, m/s.
-    pub velocity_m_s: Vec3,
+    pub velocity_m_per_s: Vec3,
     /// Start of the window, s.
     pub start_s: Real,
     /// End of the window, s.
@@ -56,13 +56,13 @@ impl Inflow {
     /// The default batch interval: the time the inflow's velocity takes to cross the
     /// region's extent along it, so a batch has left the region before the next one.
     /// `None` when the velocity is zero.
-    pub fn crossing_time_s(region: &Region, velocity_m_s: Vec3) -> Option<Real> {
-        let speed = velocity_m_s.norm();
+    pub fn crossing_time_s(region: &Region, velocity_m_per_s: Vec3) -> Option<Real> {
+        let speed = velocity_m_per_s.norm();
         if speed == 0.0 {
             return None;
         }
         let (lo, hi) = region.bounds();
-        let direction = velocity_m_s / speed;
+        let direction = velocity_m_per_s / speed;
         let extent: Real = (0..3).map(|k| direction[k].abs() * (hi[k] - lo[k])).sum();
         Some(extent / speed)
     }
@@ -85,10 +85,10 @@ impl Inflow {
                 self.mass_fractions
             ));
         }
-        if !(self.mass_rate_kg_s.is_finite() && self.mass_rate_kg_s > 0.0) {
+        if !(self.mass_rate_kg_per_s.is_finite() && self.mass_rate_kg_per_s > 0.0) {
             return bad(format!(
                 "expected a positive mass rate, got {} kg/s",
-                self.mass_rate_kg_s
+                self.mass_rate_kg_per_s
             ));
         }
         if !(self.interval_s.is_finite() && self.interval_s > 0.0) {
@@ -103,7 +103,7 @@ impl Inflow {
                 self.start_s, self.end_s
             ));
         }
-        if self.velocity_m_s.iter().any(|v| !v.is_finite()) {
+        if self.velocity_m_per_s.iter().any(|v| !v.is_finite()) {
             return bad("expected a finite velocity".to_string());
         }
         let mut rng = ChaCha8Rng::seed_from_u64(0);
@@ -181,7 +181,7 @@ impl InflowState {
         self.batches += 1;
         let inflow = &self.inflow;
         let horizon = self.next_batch_s().min(inflow.end_s);
-        let target = inflow.mass_rate_kg_s * (horizon - inflow.start_s);
+        let target = inflow.mass_rate_kg_per_s * (horizon - inflow.start_s);
         let largest = types.iter().map(|t| t.radius_m).fold(0.0, Real::max);
         let (lo, hi) = inflow.region.bounds();
         let reach = Vec3::repeat(2.0 * largest);
@@ -230,7 +230,7 @@ impl InflowState {
             placed.push((centre, radius, kind));
             particles.push(*next_id, kind as u16, &types[kind], centre);
             let last = particles.len() - 1;
-            particles.velocity_m_s[last] = inflow.velocity_m_s;
+            particles.velocity_m_per_s[last] = inflow.velocity_m_per_s;
             *next_id += 1;
             self.inserted_kg[kind] += types[kind].mass_kg();
             count += 1;

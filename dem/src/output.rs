@@ -29,7 +29,7 @@ pub fn write_dump_custom(
     }
     writeln!(out, "ITEM: ATOMS {DUMP_COLUMNS}")?;
     for i in 0..particles.len() {
-        let (x, v) = (particles.position_m[i], particles.velocity_m_s[i]);
+        let (x, v) = (particles.position_m[i], particles.velocity_m_per_s[i]);
         let w = particles.angular_velocity[i];
         writeln!(
             out,
@@ -86,7 +86,7 @@ pub fn write_vtk_legacy(
         writeln!(out, "{r:e}")?;
     }
     writeln!(out, "VECTORS velocity double")?;
-    for v in &particles.velocity_m_s {
+    for v in &particles.velocity_m_per_s {
         writeln!(out, "{:e} {:e} {:e}", v.x, v.y, v.z)?;
     }
     writeln!(out, "VECTORS angular_velocity double")?;

@@ -23,7 +23,7 @@ pub struct Particles {
     /// Position of the centre, m.
     pub position_m: Vec<Vec3>,
     /// Velocity, m/s.
-    pub velocity_m_s: Vec<Vec3>,
+    pub velocity_m_per_s: Vec<Vec3>,
     /// Angular velocity, rad/s.
     pub angular_velocity: Vec<Vec3>,
     /// Force of the current step, N.
@@ -51,7 +51,7 @@ impl Particles {
         self.radius_m.push(particle_type.radius_m);
         self.mass_kg.push(particle_type.mass_kg());
         self.position_m.push(position_m);
-        self.velocity_m_s.push(Vec3::zeros());
+        self.velocity_m_per_s.push(Vec3::zeros());
         self.angular_velocity.push(Vec3::zeros());
         self.force_n.push(Vec3::zeros());
         self.torque_n_m.push(Vec3::zeros());
@@ -67,7 +67,7 @@ impl Particles {
     pub fn kinetic_energy_j(&self) -> Real {
         (0..self.len())
             .map(|i| {
-                0.5 * self.mass_kg[i] * self.velocity_m_s[i].norm_squared()
+                0.5 * self.mass_kg[i] * self.velocity_m_per_s[i].norm_squared()
                     + 0.5 * self.inertia_kg_m2(i) * self.angular_velocity[i].norm_squared()
             })
             .sum()
@@ -91,7 +91,7 @@ impl Particles {
         reorder.apply(&mut self.radius_m);
         reorder.apply(&mut self.mass_kg);
         reorder.apply(&mut self.position_m);
-        reorder.apply(&mut self.velocity_m_s);
+        reorder.apply(&mut self.velocity_m_per_s);
         reorder.apply(&mut self.angular_velocity);
         reorder.apply(&mut self.force_n);
         reorder.apply(&mut self.torque_n_m);

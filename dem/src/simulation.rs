@@ -51,7 +51,7 @@ pub struct Config {
     /// Time step, s.
     pub timestep_s: Real,
     /// Gravitational acceleration, m/s².
-    pub gravity_m_s2: Vec3,
+    pub gravity_m_per_s2: Vec3,
     /// Verlet skin added to the contact reach when listing neighbours, m.
     pub skin_m: Real,
     /// Box that the neighbour grid covers, m (particles outside still interact).
@@ -62,7 +62,7 @@ pub struct Config {
     /// contact, degrees.
     pub coplanar_angle_deg: Real,
     /// A particle faster than this means the run has gone unstable, m/s.
-    pub max_speed_m_s: Real,
+    pub max_speed_m_per_s: Real,
     /// An overlap beyond this fraction of the smaller radius means the run has gone
     /// unstable (typical overlaps are below 1 %).
     pub max_overlap_ratio: Real,
@@ -84,7 +84,7 @@ pub use orch_granular::Crossing;
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum Unstable {
     /// A particle moved too fast.
-    #[error("the run went unstable at step {step} (t = {time_s:.6} s): particle {id} moves at {speed_m_s:.3e} m/s, beyond the bound of {bound_m_s} m/s; reduce the time step (now {timestep_s:.3e} s) or check the material stiffness")]
+    #[error("the run went unstable at step {step} (t = {time_s:.6} s): particle {id} moves at {speed_m_per_s:.3e} m/s, beyond the bound of {bound_m_per_s} m/s; reduce the time step (now {timestep_s:.3e} s) or check the material stiffness")]
     Speed {
         /// Step number.
         step: u64,
@@ -93,9 +93,9 @@ pub enum Unstable {
         /// Particle id.
         id: u32,
         /// Its speed, m/s (NaN when the state is no longer finite).
-        speed_m_s: Real,
+        speed_m_per_s: Real,
         /// The bound, m/s.
-        bound_m_s: Real,
+        bound_m_per_s: Real,
         /// The time step, s.
         timestep_s: Real,
     },
@@ -325,7 +325,7 @@ impl Simulation {
         };
         positive("the time step (s)", config.timestep_s)?;
         positive("the skin (m)", config.skin_m)?;
-        positive("max_speed (m/s)", config.max_speed_m_s)?;
+        positive("max_speed (m/s)", config.max_speed_m_per_s)?;
         positive("max_overlap_ratio", config.max_overlap_ratio)?;
         if config.air_field.is_some() && config.air.is_none() {
             return Err(SetupError::AirFieldWithoutAir);
@@ -536,7 +536,7 @@ impl Simulation {
         let half = 0.5 * dt;
         let Particles {
             position_m,
-            velocity_m_s,
+            velocity_m_per_s,
             angular_velocity,
             force_n,
             torque_n_m,
@@ -553,7 +553,7 @@ impl Simulation {
         let (sensor_z_m, sink_z_m, time) = (self.sensor_z_m, self.sink_z_m, self.time_s);
         position_m
             .par_chunks_mut(CHUNK)
-            .zip(velocity_m_s.par_chunks_mut(CHUNK))
+            .zip(velocity_m_per_s.par_chunks_mut(CHUNK))
             .zip(angular_velocity.par_chunks_mut(CHUNK))
             .enumerate()
             .map(|(c, ((xs, vs), ws))| {
@@ -629,7 +629,7 @@ impl Simulation {
             .extend(meshes.iter().map(|m| m.motion.displacement_m(t)));
         self.mesh_velocities.clear();
         self.mesh_velocities
-            .extend(meshes.iter().map(|m| m.motion.velocity_m_s(t)));
+            .extend(meshes.iter().map(|m| m.motion.velocity_m_per_s(t)));
         self.mesh_present.clear();
         self.mesh_present
             .extend(meshes.iter().map(|m| m.is_present(t)));
@@ -761,8 +761,8 @@ impl Simulation {
                 step: self.step,
                 time_s: self.time_s,
                 id: self.particles.id[i],
-                speed_m_s: self.particles.velocity_m_s[i].norm(),
-                bound_m_s: self.config.max_speed_m_s,
+                speed_m_per_s: self.particles.velocity_m_per_s[i].norm(),
+                bound_m_per_s: self.config.max_speed_m_per_s,
                 timestep_s: self.config.timestep_s,
             }),
         }
@@ -793,7 +793,7 @@ impl Simulation {
         let mut load_rest: &mut [PairLoad] = &mut self.pair_loads;
         let Particles {
             position_m,
-            velocity_m_s,
+            velocity_m_per_s,
             angular_velocity,
             radius_m,
             mass_kg,
@@ -822,8 +822,8 @@ impl Simulation {
             torque_rest = rest;
             sum_blocks.push((forces, torques));
         }
-        let (position_m, velocity_m_s, angular_velocity) =
-            (&*position_m, &*velocity_m_s, &*angular_velocity);
+        let (position_m, velocity_m_per_s, angular_velocity) =
+            (&*position_m, &*velocity_m_per_s, &*angular_velocity);
         let (radius_m, mass_kg, kind) = (&*radius_m, &*mass_kg, &*kind);
         let partner = &self.pairs.partner;
         let table = &self.table;
@@ -841,7 +841,8 @@ impl Simulation {
                     for i in first..last {
                         let mut force_i = Vec3::zeros();
                         let mut torque_i = Vec3::zeros();
-                        let (xi, vi, wi) = (position_m[i], velocity_m_s[i], angular_velocity[i]);
+                        let (xi, vi, wi) =
+                            (position_m[i], velocity_m_per_s[i], angular_velocity[i]);
                         let (ri, mi, ki) = (radius_m[i], mass_kg[i], kind[i] as usize);
                         let row = rows[i] as usize..rows[i + 1] as usize;
                         for (local, &j) in (row.start - base..).zip(&partner[row]) {
@@ -880,7 +881,7 @@ impl Simulation {
                             let mj = mass_kg[j];
                             let wj = angular_velocity[j];
                             let contact_velocity =
-                                vi - velocity_m_s[j] - (ri * wi + rj * wj).cross(&n);
+                                vi - velocity_m_per_s[j] - (ri * wi + rj * wj).cross(&n);
                             // R* = ri rj / (ri + rj) and m* = mi mj / (mi + mj) from
                             // one division.
                             let mass_sum = mi + mj;
@@ -932,20 +933,20 @@ impl Simulation {
         let walls = WallState {
             meshes: &self.meshes,
             offsets_m: &self.mesh_offsets,
-            velocities_m_s: &self.mesh_velocities,
+            velocities_m_per_s: &self.mesh_velocities,
             present: &self.mesh_present,
             table: &self.table,
             dt_s: self.config.timestep_s,
             cos_coplanar: self.config.coplanar_angle_deg.to_radians().cos(),
         };
-        let gravity = self.config.gravity_m_s2;
+        let gravity = self.config.gravity_m_per_s2;
         let air = self.config.air;
         let air_field = self.config.air_field.as_ref();
         let pairs = &self.pairs;
         let loads = &self.pair_loads;
         let candidates = &self.wall_candidates;
         self.impact_energy_j.resize(self.particles.len(), 0.0);
-        let bound_squared = self.config.max_speed_m_s.powi(2);
+        let bound_squared = self.config.max_speed_m_per_s.powi(2);
         let half = kick_dt_s.map(|dt| 0.5 * dt);
         let p = &mut self.particles;
         let (position, mass, radius, kind) = (&p.position_m, &p.mass_kg, &p.radius_m, &p.kind);
@@ -953,7 +954,7 @@ impl Simulation {
             .force_n
             .par_chunks_mut(CHUNK)
             .zip(p.torque_n_m.par_chunks_mut(CHUNK))
-            .zip(p.velocity_m_s.par_chunks_mut(CHUNK))
+            .zip(p.velocity_m_per_s.par_chunks_mut(CHUNK))
             .zip(p.angular_velocity.par_chunks_mut(CHUNK))
             .zip(self.impact_energy_j.par_chunks_mut(CHUNK))
             .zip(self.wall_contacts.chunks_mut(CHUNK))
@@ -1001,7 +1002,7 @@ impl Simulation {
                             lists = rest;
                             let particle = ParticleView {
                                 position_m: position[i],
-                                velocity_m_s: *velocity,
+                                velocity_m_per_s: *velocity,
                                 angular_velocity: *spin,
                                 radius_m: radius[i],
                                 mass_kg: mass[i],

@@ -247,7 +247,7 @@ impl Outcome {
 #[derive(Debug, Clone, Copy)]
 struct State {
     time_s: Real,
-    velocity_m_s: Vec3,
+    velocity_m_per_s: Vec3,
     spin: Vec3,
 }
 
@@ -261,14 +261,14 @@ enum Impact {
         start_s: Real,
         normal: Vec3,
         partner: Option<u32>,
-        approach_m_s: Vec3,
+        approach_m_per_s: Vec3,
     },
     /// Over.
     Done {
         duration_s: Real,
         normal: Vec3,
-        approach_m_s: Vec3,
-        rebound_m_s: Vec3,
+        approach_m_per_s: Vec3,
+        rebound_m_per_s: Vec3,
         spin_after: Vec3,
     },
 }
@@ -303,11 +303,11 @@ fn touching(simulation: &Simulation) -> Option<(Vec3, Option<u32>)> {
 
 /// Particle 1's velocity relative to `partner` (a fixed wall when `None`), m/s, from
 /// the ids and velocities of every particle.
-fn relative_velocity(ids: &[u32], velocities_m_s: &[Vec3], partner: Option<u32>) -> Vec3 {
+fn relative_velocity(ids: &[u32], velocities_m_per_s: &[Vec3], partner: Option<u32>) -> Vec3 {
     let velocity_of = |id: u32| {
         ids.iter()
             .position(|&other| other == id)
-            .map(|j| velocities_m_s[j])
+            .map(|j| velocities_m_per_s[j])
     };
     let other = partner.and_then(velocity_of).unwrap_or_else(Vec3::zeros);
     velocity_of(MEASURED_ID).expect("a verification case keeps particle 1") - other
@@ -359,7 +359,7 @@ pub fn run(
         let i = measured(simulation);
         let state = State {
             time_s: simulation.time_s(),
-            velocity_m_s: p.velocity_m_s[i],
+            velocity_m_per_s: p.velocity_m_per_s[i],
             spin: p.angular_velocity[i],
         };
         for (check, recorded) in verify.check.iter().zip(&mut windows) {
@@ -376,8 +376,8 @@ pub fn run(
                 start_s: state.time_s,
                 normal,
                 partner,
-                approach_m_s: if step == 0 {
-                    relative_velocity(&p.id, &p.velocity_m_s, partner)
+                approach_m_per_s: if step == 0 {
+                    relative_velocity(&p.id, &p.velocity_m_per_s, partner)
                 } else {
                     relative_velocity(&previous.0, &previous.1, partner)
                 },
@@ -387,21 +387,21 @@ pub fn run(
                     start_s,
                     normal,
                     partner,
-                    approach_m_s,
+                    approach_m_per_s,
                 },
                 None,
             ) => Impact::Done {
                 duration_s: state.time_s - start_s,
                 normal,
-                approach_m_s,
-                rebound_m_s: relative_velocity(&p.id, &p.velocity_m_s, partner),
+                approach_m_per_s,
+                rebound_m_per_s: relative_velocity(&p.id, &p.velocity_m_per_s, partner),
                 spin_after: state.spin,
             },
             (impact, _) => impact,
         };
         if wants_impact && matches!(impact, Impact::Approaching) {
             previous.0.clone_from(&p.id);
-            previous.1.clone_from(&p.velocity_m_s);
+            previous.1.clone_from(&p.velocity_m_per_s);
         }
         let impact_over = !wants_impact || matches!(impact, Impact::Done { .. });
         if impact_over && state.time_s >= last_window_s - 0.5 * dt {
@@ -432,16 +432,16 @@ fn measure(
             Impact::Done {
                 duration_s,
                 normal,
-                approach_m_s,
-                rebound_m_s,
+                approach_m_per_s,
+                rebound_m_per_s,
                 spin_after,
             } => {
                 let tangential = |v: Vec3| (v - v.dot(&normal) * normal).norm();
                 Ok(match check.quantity {
-                    Quantity::Restitution => rebound_m_s.dot(&normal) / -approach_m_s.dot(&normal),
+                    Quantity::Restitution => rebound_m_per_s.dot(&normal) / -approach_m_per_s.dot(&normal),
                     Quantity::ContactDuration => duration_s,
                     Quantity::TangentialSpeedLoss => {
-                        tangential(approach_m_s) - tangential(rebound_m_s)
+                        tangential(approach_m_per_s) - tangential(rebound_m_per_s)
                     }
                     _ => spin_after.norm(),
                 })
@@ -475,7 +475,7 @@ fn window_value(check: &Check, a: &State, b: &State, simulation: &Simulation) ->
         v / v.norm()
     };
     let direction = unit(check.direction);
-    let dv = (b.velocity_m_s - a.velocity_m_s).dot(&direction);
+    let dv = (b.velocity_m_per_s - a.velocity_m_per_s).dot(&direction);
     match check.quantity {
         Quantity::Acceleration => dv / (b.time_s - a.time_s),
         _ => {

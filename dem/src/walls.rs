@@ -291,7 +291,7 @@ pub struct WallState<'a> {
     /// Each mesh's displacement from its file position, m.
     pub offsets_m: &'a [Vec3],
     /// Each mesh's velocity, m/s.
-    pub velocities_m_s: &'a [Vec3],
+    pub velocities_m_per_s: &'a [Vec3],
     /// Whether each mesh is present.
     pub present: &'a [bool],
     /// Contact constants.
@@ -308,7 +308,7 @@ pub struct ParticleView {
     /// Centre, m.
     pub position_m: Vec3,
     /// Velocity, m/s.
-    pub velocity_m_s: Vec3,
+    pub velocity_m_per_s: Vec3,
     /// Angular velocity, rad/s.
     pub angular_velocity: Vec3,
     /// Radius, m.
@@ -555,9 +555,9 @@ fn add_contact(
 ) {
     let r = particle.radius_m;
     let n = touch.normal;
-    let wall_velocity = walls.velocities_m_s[touch.mesh as usize];
+    let wall_velocity = walls.velocities_m_per_s[touch.mesh as usize];
     let contact_velocity =
-        particle.velocity_m_s - r * particle.angular_velocity.cross(&n) - wall_velocity;
+        particle.velocity_m_per_s - r * particle.angular_velocity.cross(&n) - wall_velocity;
     if !continued {
         let approach = -contact_velocity.dot(&n);
         if approach > 0.0 {

@@ -2,7 +2,7 @@
 //! particle that crossed a sensor plane downwards, in SI units.
 //!
 //! ```text
-//! time_s,id,type,radius_m,mass_kg,x_m,y_m,z_m,vx_m_s,vy_m_s,vz_m_s
+//! time_s,id,type,radius_m,mass_kg,x_m,y_m,z_m,vx_m_per_s,vy_m_per_s,vz_m_per_s
 //! 5e-1,7,1,2e-3,8e-5,1e-3,0e0,-5e-3,0e0,0e0,-1e0
 //! ```
 //!

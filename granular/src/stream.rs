@@ -25,7 +25,7 @@ pub struct StreamOptions {
     /// Height of the lip above the receiving plane, m.
     pub lip_height_m: f64,
     /// Gravitational acceleration, m/s² (positive).
-    pub gravity_m_s2: f64,
+    pub gravity_m_per_s2: f64,
     /// Mass fed into the chute, kg.
     pub fed_mass_kg: f64,
     /// Fraction of crossings in the outer layer, e.g. 0.1.
@@ -40,9 +40,9 @@ pub struct StreamResponses {
     /// Mass that crossed, kg.
     pub mass_kg: f64,
     /// Mass-weighted mean speed at the plane, m/s.
-    pub impact_speed_m_s: Option<f64>,
+    pub impact_speed_m_per_s: Option<f64>,
     /// Mass-weighted mean speed traced back to the lip, m/s.
-    pub lip_speed_m_s: Option<f64>,
+    pub lip_speed_m_per_s: Option<f64>,
     /// Mass-weighted mean angle below the horizontal traced back to the lip, degrees.
     pub lip_angle_deg: Option<f64>,
     /// 5–95 % range of `y` at the plane, m.
@@ -88,7 +88,7 @@ fn fine_fraction(crossings: &[&Crossing], fine_type: u32) -> Option<f64> {
 impl StreamResponses {
     /// The responses of `crossings` of the receiving plane.
     pub fn compute(crossings: &[Crossing], options: &StreamOptions) -> Self {
-        let two_g_h = 2.0 * options.gravity_m_s2 * options.lip_height_m;
+        let two_g_h = 2.0 * options.gravity_m_per_s2 * options.lip_height_m;
         let speed_squared = |c: &Crossing| c.velocity_m_per_s.iter().map(|v| v * v).sum::<f64>();
         let lip_vertical = |c: &Crossing| {
             let vz = c.velocity_m_per_s[2];
@@ -118,8 +118,10 @@ impl StreamResponses {
         StreamResponses {
             count: crossings.len(),
             mass_kg,
-            impact_speed_m_s: mass_mean(crossings, |c| speed_squared(c).sqrt()),
-            lip_speed_m_s: mass_mean(crossings, |c| (speed_squared(c) - two_g_h).max(0.0).sqrt()),
+            impact_speed_m_per_s: mass_mean(crossings, |c| speed_squared(c).sqrt()),
+            lip_speed_m_per_s: mass_mean(crossings, |c| {
+                (speed_squared(c) - two_g_h).max(0.0).sqrt()
+            }),
             lip_angle_deg: mass_mean(crossings, |c| {
                 lip_vertical(c).atan2(horizontal(c)).to_degrees()
             }),
@@ -151,7 +153,7 @@ mod tests {
         StreamOptions {
             fine_type: 2,
             lip_height_m: 0.1,
-            gravity_m_s2: 9.81,
+            gravity_m_per_s2: 9.81,
             fed_mass_kg,
             outer_layer: 0.1,
         }
@@ -167,8 +169,8 @@ mod tests {
         let r = StreamResponses::compute(&c, &options(1e-4));
         // Free fall: v² = v0² + 2 g h.
         let impact = (v0 * v0 + 2.0 * 9.81 * 0.1).sqrt();
-        assert!((r.impact_speed_m_s.unwrap() - impact).abs() < 1e-12);
-        assert!((r.lip_speed_m_s.unwrap() - v0).abs() < 1e-12);
+        assert!((r.impact_speed_m_per_s.unwrap() - impact).abs() < 1e-12);
+        assert!((r.lip_speed_m_per_s.unwrap() - v0).abs() < 1e-12);
         assert!((r.lip_angle_deg.unwrap() - 30.0).abs() < 1e-9);
         assert_eq!(r.held_up_mass_kg, 0.0);
         assert_eq!(r.count, 1);
@@ -181,7 +183,7 @@ mod tests {
             crossing(2, 2, 1e-4, [0.3, 0.0, -0.1], [0.0, 0.0, -4.0]),
         ];
         let r = StreamResponses::compute(&c, &options(1e-3));
-        assert!((r.impact_speed_m_s.unwrap() - 2.5).abs() < 1e-12);
+        assert!((r.impact_speed_m_per_s.unwrap() - 2.5).abs() < 1e-12);
         assert!((r.held_up_mass_kg - 6e-4).abs() < 1e-15);
         assert!((r.fine_fraction.unwrap() - 0.25).abs() < 1e-12);
     }
@@ -238,7 +240,7 @@ mod tests {
     fn no_crossings_define_no_speeds_and_all_mass_is_held_up() {
         let r = StreamResponses::compute(&[], &options(0.5));
         assert_eq!(r.count, 0);
-        assert_eq!(r.impact_speed_m_s, None);
+        assert_eq!(r.impact_speed_m_per_s, None);
         assert_eq!(r.width_m, None);
         assert_eq!(r.outer_fine_fraction, None);
         assert_eq!(r.held_up_mass_kg, 0.5);

@@ -274,3 +274,39 @@ fn the_orchestrator_s_modules_form_no_import_circle() {
         }
     }
 }
+
+/// One unit-suffix convention in names: rates per second are `_per_s` (`_m_per_s`,
+/// `_kg_per_s`, `_m_per_s2`), never `_m_s` or `_kg_s` (file formats keep their own
+/// column names, in their string literals).
+#[test]
+fn rates_are_named_per_second_everywhere() {
+    let mut offenders = Vec::new();
+    for dir in [
+        "orchestrator/src",
+        "adapters/src",
+        "dem/src",
+        "granular/src",
+        "metamodel/src",
+        "executor/src",
+    ] {
+        for (path, text) in production_sources(&root().join(dir)) {
+            for (number, line) in text.lines().enumerate() {
+                if line.contains('"') || line.trim_start().starts_with("//") {
+                    continue;
+                }
+                let words = line.split(|c: char| !(c.is_ascii_alphanumeric() || c == '_'));
+                if let Some(word) = words
+                    .filter(|w| w.len() > 5)
+                    .find(|w| w.ends_with("_m_s") || w.ends_with("_kg_s") || w.ends_with("_m_s2"))
+                {
+                    offenders.push(format!("{}:{}: {word}", path.display(), number + 1));
+                }
+            }
+        }
+    }
+    assert!(
+        offenders.is_empty(),
+        "rates named without `_per_s`:\n{}",
+        offenders.join("\n")
+    );
+}

@@ -183,7 +183,7 @@ fn kernel_dumps_read_with_the_liggghts_dump_reader() {
     };
     let mut particles = Particles::default();
     particles.push(4, 1, &kind, Vec3::new(0.001, 0.002, -0.004));
-    particles.velocity_m_s[0] = Vec3::new(0.0, 0.0, -1.25);
+    particles.velocity_m_per_s[0] = Vec3::new(0.0, 0.0, -1.25);
     particles.angular_velocity[0] = Vec3::new(0.5, -2.0, 0.0);
     let mut bytes = Vec::new();
     orch_dem::output::write_dump_custom(

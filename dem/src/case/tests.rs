@@ -64,12 +64,12 @@ fn explicit_particles_keep_their_state_type_and_radius() {
     let (first, second) = (p.index_of(1).unwrap(), p.index_of(2).unwrap());
     assert_eq!((p.kind[first], p.kind[second]), (1, 0));
     assert_eq!(p.position_m[first], Vec3::new(0.0, 0.0, 0.005));
-    assert_eq!(p.velocity_m_s[first], Vec3::new(0.0, 0.0, -1.0));
+    assert_eq!(p.velocity_m_per_s[first], Vec3::new(0.0, 0.0, -1.0));
     assert_eq!(p.angular_velocity[first], Vec3::new(0.0, 20.0, 0.0));
     assert_eq!((p.radius_m[first], p.radius_m[second]), (0.002, 0.0005));
     let glass = 4.0 / 3.0 * std::f64::consts::PI * 0.0005f64.powi(3) * 2500.0;
     assert!((p.mass_kg[second] - glass).abs() < 1e-15);
-    assert_eq!(p.velocity_m_s[second], Vec3::zeros());
+    assert_eq!(p.velocity_m_per_s[second], Vec3::zeros());
 }
 
 #[test]
@@ -155,7 +155,7 @@ fn a_packing_file_gives_particles_at_rest_with_its_ids_and_types() {
     assert_eq!((p.kind[three], p.kind[seven]), (1, 0));
     assert_eq!((p.radius_m[three], p.radius_m[seven]), (0.002, 0.001));
     assert_eq!(p.position_m[seven], Vec3::new(0.0, 0.0, -0.005));
-    assert_eq!(p.velocity_m_s[three], Vec3::zeros());
+    assert_eq!(p.velocity_m_per_s[three], Vec3::zeros());
     let missing = case.build(vec![]).unwrap_err().to_string();
     assert!(
         missing.starts_with("`packing.file`: the case names bed.data, but its text was not given"),
@@ -251,7 +251,7 @@ fn an_air_velocity_field_is_built_from_the_text_the_caller_reads() {
         .unwrap();
     assert_eq!(sim.config().air_field.as_ref(), Some(&field));
     assert_eq!(
-        sim.config().air.unwrap().velocity_m_s,
+        sim.config().air.unwrap().velocity_m_per_s,
         Vec3::new(1.0, 0.0, 0.0)
     );
     // The field must be given when named, and only then.
@@ -290,7 +290,7 @@ fn air_defaults_to_still_air_at_twenty_degrees_and_is_checked() {
     let sim = case.build(vec![]).unwrap();
     let air = sim.config().air.unwrap();
     assert_eq!((air.density_kg_m3, air.viscosity_pa_s), (1.2, 1.8e-5));
-    assert_eq!(air.velocity_m_s, Vec3::zeros());
+    assert_eq!(air.velocity_m_per_s, Vec3::zeros());
     let windy = Case::parse(&format!("{BASE}{TWO}\n[air]\nvelocity = [2.0, 0.0, 0.0]\n")).unwrap();
     assert_eq!(
         windy
@@ -299,7 +299,7 @@ fn air_defaults_to_still_air_at_twenty_degrees_and_is_checked() {
             .config()
             .air
             .unwrap()
-            .velocity_m_s
+            .velocity_m_per_s
             .x,
         2.0
     );

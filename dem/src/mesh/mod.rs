@@ -17,7 +17,7 @@ pub enum Motion {
     /// Constant velocity from `start_s` on.
     Translation {
         /// Velocity, m/s.
-        velocity_m_s: Vec3,
+        velocity_m_per_s: Vec3,
         /// Time the motion starts, s.
         start_s: Real,
     },
@@ -39,9 +39,9 @@ impl Motion {
         match *self {
             Motion::Fixed => Vec3::zeros(),
             Motion::Translation {
-                velocity_m_s,
+                velocity_m_per_s,
                 start_s,
-            } => velocity_m_s * (t_s - start_s).max(0.0),
+            } => velocity_m_per_s * (t_s - start_s).max(0.0),
             Motion::Vibration {
                 amplitude_m,
                 frequency_hz,
@@ -58,15 +58,15 @@ impl Motion {
     }
 
     /// Velocity at time `t_s`, m/s.
-    pub fn velocity_m_s(&self, t_s: Real) -> Vec3 {
+    pub fn velocity_m_per_s(&self, t_s: Real) -> Vec3 {
         match *self {
             Motion::Fixed => Vec3::zeros(),
             Motion::Translation {
-                velocity_m_s,
+                velocity_m_per_s,
                 start_s,
             } => {
                 if t_s >= start_s {
-                    velocity_m_s
+                    velocity_m_per_s
                 } else {
                     Vec3::zeros()
                 }

@@ -46,11 +46,11 @@ fn a_sphere_falling_in_still_air_reaches_its_terminal_speed_within_one_percent()
         let kind = glass(radius);
         let dt = 1e-4;
         let mut config = lone_sphere(dt);
-        config.gravity_m_s2 = Vec3::new(0.0, 0.0, -9.81);
+        config.gravity_m_per_s2 = Vec3::new(0.0, 0.0, -9.81);
         config.air = Some(Air {
             density_kg_m3: 1.2,
             viscosity_pa_s: 1.8e-5,
-            velocity_m_s: Vec3::zeros(),
+            velocity_m_per_s: Vec3::zeros(),
         });
         let expected = terminal_speed(radius, 2500.0, 1.2, 1.8e-5, 9.81);
         let p = particles(&kind, &[Vec3::zeros()], &[Vec3::zeros()]);
@@ -60,7 +60,7 @@ fn a_sphere_falling_in_still_air_reaches_its_terminal_speed_within_one_percent()
         for _ in 0..steps {
             sim.step().unwrap();
         }
-        let v = -sim.particles.velocity_m_s[0].z;
+        let v = -sim.particles.velocity_m_per_s[0].z;
         eprintln!("r = {radius} m: terminal speed {v:.4} m/s, expected {expected:.4}");
         assert!((v - expected).abs() / expected < 0.01, "{v} vs {expected}");
     }
@@ -73,7 +73,7 @@ fn a_sphere_at_rest_in_a_wind_is_carried_along_it() {
     config.air = Some(Air {
         density_kg_m3: 1.2,
         viscosity_pa_s: 1.8e-5,
-        velocity_m_s: Vec3::new(3.0, 0.0, 0.0),
+        velocity_m_per_s: Vec3::new(3.0, 0.0, 0.0),
     });
     let p = particles(&kind, &[Vec3::zeros()], &[Vec3::zeros()]);
     let mut sim = Simulation::new(config, vec![kind], p, vec![]).unwrap();
@@ -84,7 +84,7 @@ fn a_sphere_at_rest_in_a_wind_is_carried_along_it() {
         for _ in 0..10_000 {
             sim.step().unwrap();
         }
-        let v = sim.particles.velocity_m_s[0];
+        let v = sim.particles.velocity_m_per_s[0];
         assert!(v.x > previous && v.x < 3.0, "{v:?} after {previous}");
         assert_eq!((v.y, v.z), (0.0, 0.0));
         previous = v.x;
@@ -97,7 +97,7 @@ fn a_sphere_at_rest_in_a_wind_is_carried_along_it() {
 fn lone_sphere(dt: Real) -> orch_dem::Config {
     let mut config = config(dt, material(0.9, 0.5));
     config.skin_m = 10.0;
-    config.max_speed_m_s = 100.0;
+    config.max_speed_m_per_s = 100.0;
     config
 }
 
@@ -125,14 +125,14 @@ fn a_uniform_wind_given_on_a_grid_drives_a_sphere_as_the_same_uniform_wind_and_n
     let still = Air {
         density_kg_m3: 1.2,
         viscosity_pa_s: 1.8e-5,
-        velocity_m_s: Vec3::zeros(),
+        velocity_m_per_s: Vec3::zeros(),
     };
     let mut gridded = lone_sphere(dt);
     gridded.air = Some(still);
     gridded.air_field = Some(AirField::parse_csv(&csv).unwrap());
     let mut uniform = lone_sphere(dt);
     uniform.air = Some(Air {
-        velocity_m_s: wind,
+        velocity_m_per_s: wind,
         ..still
     });
     // The first sphere inside the grid; the second 1 mm beyond its x = 0.2 m face.
@@ -152,21 +152,21 @@ fn a_uniform_wind_given_on_a_grid_drives_a_sphere_as_the_same_uniform_wind_and_n
         let (field, wind) = (&in_field.particles, &in_wind.particles);
         assert!(
             close(field.position_m[0], wind.position_m[0])
-                && close(field.velocity_m_s[0], wind.velocity_m_s[0]),
+                && close(field.velocity_m_per_s[0], wind.velocity_m_per_s[0]),
             "at t = {} s: {:?}, {:?} in the gridded wind against {:?}, {:?} in the uniform one",
             in_field.time_s(),
             field.position_m[0],
-            field.velocity_m_s[0],
+            field.velocity_m_per_s[0],
             wind.position_m[0],
-            wind.velocity_m_s[0]
+            wind.velocity_m_per_s[0]
         );
         // It speeds up towards the wind's speed without reaching it.
-        let v = field.velocity_m_s[0].z;
+        let v = field.velocity_m_per_s[0].z;
         assert!(v > previous && v < 2.0, "{v} m/s after {previous} m/s");
         previous = v;
         // Beyond the grid the air is still: with no gravity nothing moves it.
         assert_eq!(
-            (field.position_m[1], field.velocity_m_s[1]),
+            (field.position_m[1], field.velocity_m_per_s[1]),
             (outside, Vec3::zeros())
         );
     }

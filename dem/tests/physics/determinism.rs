@@ -17,7 +17,7 @@ fn settle(threads: usize) -> Vec<Vec3> {
         };
         insert(&mut p, &types, &[30, 240], &region, 11, 1).unwrap();
         let mut cfg = config(2e-5, m);
-        cfg.gravity_m_s2 = Vec3::new(0.0, 0.0, -9.81);
+        cfg.gravity_m_per_s2 = Vec3::new(0.0, 0.0, -9.81);
         let mut sim = Simulation::new(cfg, types, p, vec![floor(0.045)]).unwrap();
         for _ in 0..6000 {
             sim.step().unwrap();
@@ -53,7 +53,7 @@ fn fall_through(threads: usize) -> (Vec<orch_dem::Crossing>, f64, usize) {
         };
         insert(&mut p, &types, &[400, 800], &region, 7, 1).unwrap();
         let mut cfg = config(2e-5, m);
-        cfg.gravity_m_s2 = Vec3::new(0.0, 0.0, -9.81);
+        cfg.gravity_m_per_s2 = Vec3::new(0.0, 0.0, -9.81);
         let mut sim = Simulation::new(cfg, types, p, Vec::new()).unwrap();
         sim.set_sensor_plane(0.01);
         sim.set_sink_plane(0.0);

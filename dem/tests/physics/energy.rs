@@ -90,7 +90,7 @@ fn energy_is_conserved_to_a_millionth_over_a_hundred_thousand_steps() {
     let p = particles(&kind, &positions, &velocities);
     let mut cfg = config(1e-6, m);
     let gravity = 9.81;
-    cfg.gravity_m_s2 = Vec3::new(0.0, 0.0, -gravity);
+    cfg.gravity_m_per_s2 = Vec3::new(0.0, 0.0, -gravity);
     cfg.coplanar_angle_deg = 1.0;
     let mut sim = Simulation::new(cfg, vec![kind], p, vec![closed_box()]).unwrap();
     let k = PairConstants::between(&m, &m);

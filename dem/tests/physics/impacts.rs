@@ -41,7 +41,7 @@ fn head_on_elastic_impact_lasts_hertz_time_and_conserves_speed() {
         1.0,
     );
     assert_relative_eq!(duration, expected, max_relative = 0.01);
-    let velocity = |id| sim.particles.velocity_m_s[index(&sim, id)].x;
+    let velocity = |id| sim.particles.velocity_m_per_s[index(&sim, id)].x;
     let rebound = velocity(2) - velocity(1);
     assert_relative_eq!(rebound, 1.0, max_relative = 0.005);
 }
@@ -59,7 +59,7 @@ fn wall_restitution(restitution: f64) -> f64 {
     let height = |s: &Simulation| s.particles.position_m[0].z - RADIUS;
     run_until(&mut sim, 1_000_000, |s| height(s) < 0.0);
     run_until(&mut sim, 1_000_000, |s| height(s) >= 0.0);
-    sim.particles.velocity_m_s[0].z
+    sim.particles.velocity_m_per_s[0].z
 }
 
 /// A sphere dropped on a wall at 1 m/s comes back at e m/s, for e = 0.3, 0.6, 0.9.
@@ -92,7 +92,7 @@ fn oblique_impact_in_the_sliding_regime_loses_the_coulomb_impulse() {
     let height = |s: &Simulation| s.particles.position_m[0].z - RADIUS;
     run_until(&mut sim, 1_000_000, |s| height(s) < 0.0);
     run_until(&mut sim, 1_000_000, |s| height(s) >= 0.0);
-    let v = sim.particles.velocity_m_s[0];
+    let v = sim.particles.velocity_m_per_s[0];
     let expected_loss = mu * (1.0 + e) * vn;
     assert_relative_eq!(vt - v.x, expected_loss, max_relative = 0.02);
     let spin = sim.particles.angular_velocity[0].y;
@@ -132,7 +132,7 @@ fn an_impact_adds_its_normal_kinetic_energy_to_the_wall_once() {
         &[Vec3::new(0.5, 0.0, 0.0)],
     );
     let mut cfg = config(2e-6, m);
-    cfg.gravity_m_s2 = Vec3::new(0.0, 0.0, -9.81);
+    cfg.gravity_m_per_s2 = Vec3::new(0.0, 0.0, -9.81);
     let mut sim = Simulation::new(cfg, vec![kind], p, vec![floor(0.01)]).unwrap();
     for _ in 0..20_000 {
         sim.step().unwrap();

@@ -18,7 +18,7 @@ fn slope(tan_theta: f64, mu: f64) -> (f64, f64) {
     let m = material(0.5, mu);
     let kind = sphere(RADIUS, m);
     let mut cfg = config(1e-6, m);
-    cfg.gravity_m_s2 = Vec3::new(G * theta.sin(), 0.0, -G * theta.cos());
+    cfg.gravity_m_per_s2 = Vec3::new(G * theta.sin(), 0.0, -G * theta.cos());
     // Start resting on the floor at the static overlap (1.5 µm under its weight).
     let p = particles(
         &kind,
@@ -30,14 +30,14 @@ fn slope(tan_theta: f64, mu: f64) -> (f64, f64) {
     for step in 1..=20_000 {
         sim.step().unwrap();
         if step % 5000 == 0 {
-            speeds.push((sim.time_s(), sim.particles.velocity_m_s[0].x));
+            speeds.push((sim.time_s(), sim.particles.velocity_m_per_s[0].x));
         }
     }
     let (t0, v0) = speeds[1];
     let (t1, v1) = speeds[3];
     let acceleration = (v1 - v0) / (t1 - t0);
-    let slip = sim.particles.velocity_m_s[0].x - RADIUS * sim.particles.angular_velocity[0].y;
-    (acceleration, slip / sim.particles.velocity_m_s[0].x)
+    let slip = sim.particles.velocity_m_per_s[0].x - RADIUS * sim.particles.angular_velocity[0].y;
+    (acceleration, slip / sim.particles.velocity_m_per_s[0].x)
 }
 
 #[test]
@@ -77,7 +77,7 @@ fn rolling_friction_decelerates_a_rolling_sphere_at_five_sevenths_mu_r_g() {
     m.rolling_friction = mu_r;
     let kind = sphere(RADIUS, m);
     let mut cfg = config(1e-6, m);
-    cfg.gravity_m_s2 = Vec3::new(0.0, 0.0, -G);
+    cfg.gravity_m_per_s2 = Vec3::new(0.0, 0.0, -G);
     let p = particles(
         &kind,
         &[Vec3::new(-0.01, 0.0, RADIUS - 1.5e-6)],
@@ -89,7 +89,7 @@ fn rolling_friction_decelerates_a_rolling_sphere_at_five_sevenths_mu_r_g() {
     for step in 1..=10_000 {
         sim.step().unwrap();
         if step % 2500 == 0 {
-            speeds.push((sim.time_s(), sim.particles.velocity_m_s[0].x));
+            speeds.push((sim.time_s(), sim.particles.velocity_m_per_s[0].x));
         }
     }
     let (t0, v0) = speeds[1];

@@ -17,7 +17,7 @@ fn feeding(threads: usize, check_overlaps: bool) -> (Simulation, Vec<Vec3>) {
         let m = material(0.6, 0.5);
         let types = vec![sphere(0.002, m), sphere(0.001, m)];
         let mut cfg = config(2e-5, m);
-        cfg.gravity_m_s2 = Vec3::new(0.0, 0.0, -9.81);
+        cfg.gravity_m_per_s2 = Vec3::new(0.0, 0.0, -9.81);
         let mut sim =
             Simulation::new(cfg, types, Particles::default(), vec![floor(0.045)]).unwrap();
         let region = Region::Box {
@@ -28,8 +28,8 @@ fn feeding(threads: usize, check_overlaps: bool) -> (Simulation, Vec<Vec3>) {
         sim.add_inflow(Inflow {
             region,
             mass_fractions: vec![0.5, 0.5],
-            mass_rate_kg_s: RATE_KG_S,
-            velocity_m_s: velocity,
+            mass_rate_kg_per_s: RATE_KG_S,
+            velocity_m_per_s: velocity,
             start_s: 0.0,
             end_s: WINDOW_S,
             interval_s: Inflow::crossing_time_s(&region, velocity).unwrap(),
@@ -46,7 +46,7 @@ fn feeding(threads: usize, check_overlaps: bool) -> (Simulation, Vec<Vec3>) {
                     if p.id[i] < first_new {
                         continue;
                     }
-                    assert_eq!(p.velocity_m_s[i].z, velocity.z + 0.5 * 2e-5 * -9.81);
+                    assert_eq!(p.velocity_m_per_s[i].z, velocity.z + 0.5 * 2e-5 * -9.81);
                     for j in 0..p.len() {
                         if j == i {
                             continue;

@@ -57,12 +57,12 @@ pub fn floor(half_m: Real) -> WallMesh {
 pub fn config(timestep_s: Real, wall: Material) -> Config {
     Config {
         timestep_s,
-        gravity_m_s2: Vec3::zeros(),
+        gravity_m_per_s2: Vec3::zeros(),
         skin_m: 0.0005,
         domain_min_m: Vec3::repeat(-0.05),
         domain_max_m: Vec3::repeat(0.05),
         coplanar_angle_deg: 20.0,
-        max_speed_m_s: 50.0,
+        max_speed_m_per_s: 50.0,
         max_overlap_ratio: 0.25,
         wall_material: wall,
         air: None,
@@ -75,7 +75,7 @@ pub fn particles(kind: &ParticleType, positions: &[Vec3], velocities: &[Vec3]) -
     let mut p = Particles::default();
     for (i, (&x, &v)) in positions.iter().zip(velocities).enumerate() {
         p.push(i as u32 + 1, 0, kind, x);
-        p.velocity_m_s[i] = v;
+        p.velocity_m_per_s[i] = v;
     }
     p
 }

@@ -14,7 +14,7 @@ fn momentum(sim: &Simulation) -> (Vec3, f64) {
     let p = &sim.particles;
     p.mass_kg
         .iter()
-        .zip(&p.velocity_m_s)
+        .zip(&p.velocity_m_per_s)
         .fold((Vec3::zeros(), 0.0), |(sum, scale), (&m, v)| {
             (sum + m * v, scale + m * v.norm())
         })
@@ -34,7 +34,7 @@ fn colliding_spheres_keep_their_total_momentum_across_the_pair_pass_blocks() {
     // 1200 spheres: the pair pass's blocks are 256 particles, so many pairs join two.
     insert(&mut p, &types, &[400, 800], &region, 3, 1).unwrap();
     for (i, (v, w)) in p
-        .velocity_m_s
+        .velocity_m_per_s
         .iter_mut()
         .zip(&mut p.angular_velocity)
         .enumerate()

@@ -98,14 +98,14 @@ fn each_reference_follows_from_the_case_inputs() {
         let table = case.verify.as_ref().unwrap();
         let kind = &simulation.types()[simulation.particles.kind[0] as usize];
         let wall = &simulation.config().wall_material;
-        let g = simulation.config().gravity_m_s2;
+        let g = simulation.config().gravity_m_per_s2;
         let two = simulation.particles.len() == 2;
         let pair = if two {
             PairConstants::between(&kind.material, &kind.material)
         } else {
             PairConstants::between(&kind.material, wall)
         };
-        let v = &simulation.particles.velocity_m_s;
+        let v = &simulation.particles.velocity_m_per_s;
         let speed = if two {
             (v[0] - v[1]).norm()
         } else {

@@ -34,7 +34,7 @@ fn rest_at(x: f64, y: f64) -> (f64, usize) {
     let m = material(0.3, 0.5);
     let kind = sphere(RADIUS, m);
     let mut cfg = config(1e-6, m);
-    cfg.gravity_m_s2 = Vec3::new(0.0, 0.0, -G);
+    cfg.gravity_m_per_s2 = Vec3::new(0.0, 0.0, -G);
     let p = particles(&kind, &[Vec3::new(x, y, RADIUS)], &[Vec3::zeros()]);
     let mut sim = Simulation::new(cfg, vec![kind], p, vec![fan_floor(0.01)]).unwrap();
     for _ in 0..20_000 {
@@ -76,7 +76,7 @@ fn a_moving_wall_drags_a_sphere_to_two_sevenths_of_its_speed() {
     let m = material(0.3, 0.5);
     let kind = sphere(RADIUS, m);
     let mut cfg = config(1e-6, m);
-    cfg.gravity_m_s2 = Vec3::new(0.0, 0.0, -G);
+    cfg.gravity_m_per_s2 = Vec3::new(0.0, 0.0, -G);
     let belt = WallMesh::new(
         "belt",
         WeldedMesh::from_triangles(&[
@@ -85,7 +85,7 @@ fn a_moving_wall_drags_a_sphere_to_two_sevenths_of_its_speed() {
         ])
         .unwrap(),
         Motion::Translation {
-            velocity_m_s: Vec3::new(belt_speed, 0.0, 0.0),
+            velocity_m_per_s: Vec3::new(belt_speed, 0.0, 0.0),
             start_s: 0.0,
         },
     );
@@ -98,7 +98,7 @@ fn a_moving_wall_drags_a_sphere_to_two_sevenths_of_its_speed() {
     for _ in 0..30_000 {
         sim.step().unwrap();
     }
-    let v = sim.particles.velocity_m_s[0].x;
+    let v = sim.particles.velocity_m_per_s[0].x;
     assert_relative_eq!(v, 2.0 / 7.0 * belt_speed, max_relative = 0.01);
     // Rolling without slipping on the belt: v - ω r = V.
     let contact_speed = v - RADIUS * sim.particles.angular_velocity[0].y;
@@ -114,7 +114,7 @@ fn a_moving_wall_drags_a_sphere_to_two_sevenths_of_its_speed() {
 #[test]
 fn a_rising_floor_touches_a_sphere_from_the_step_it_reaches_it() {
     let radius = 0.0005;
-    let rise_m_s = 0.5;
+    let rise_m_per_s = 0.5;
     let m = material(0.6, 0.5);
     let kind = sphere(radius, m);
     let skin = config(1e-5, m).skin_m;
@@ -127,13 +127,13 @@ fn a_rising_floor_touches_a_sphere_from_the_step_it_reaches_it() {
         );
         let mut floor = crate::floor(0.01);
         floor.motion = Motion::Translation {
-            velocity_m_s: Vec3::new(0.0, 0.0, rise_m_s),
+            velocity_m_per_s: Vec3::new(0.0, 0.0, rise_m_per_s),
             start_s: 0.0,
         };
         let mut sim = Simulation::new(config(1e-5, m), vec![kind], p, vec![floor]).unwrap();
         loop {
             sim.step().unwrap();
-            let gap = sim.particles.position_m[0].z - rise_m_s * sim.time_s() - radius;
+            let gap = sim.particles.position_m[0].z - rise_m_per_s * sim.time_s() - radius;
             assert_eq!(
                 sim.wall_contact_count(0) > 0,
                 gap < 0.0,

@@ -514,13 +514,18 @@ impl Study {
     /// The response whose value in each run is the half-width of `response`'s 95 %
     /// interval, when its spec names one (the hopper's `discharge_rate_ci95`).
     pub fn interval_of(&self, response: &str) -> Option<&str> {
+        self.response_spec(response)
+            .and_then(|spec| spec.interval.as_deref())
+    }
+
+    /// The spec of response `name`, when the equipment or a stage declares it.
+    fn response_spec(&self, name: &str) -> Option<&orch_adapters::ResponseSpec> {
         let stages = self.stages.iter().flat_map(|s| s.stage.responses());
         self.simulation
             .responses()
             .iter()
             .chain(stages)
-            .find(|spec| spec.name == response)
-            .and_then(|spec| spec.interval.as_deref())
+            .find(|spec| spec.name == name)
     }
 
     /// Every response the study's runs can produce: the equipment's, then each stage's.
@@ -540,13 +545,7 @@ impl Study {
 
     /// The unit of response `name`, when the equipment or a stage declares it.
     pub fn response_unit(&self, name: &str) -> Option<&str> {
-        let stages = self.stages.iter().flat_map(|s| s.stage.responses());
-        self.simulation
-            .responses()
-            .iter()
-            .chain(stages)
-            .find(|r| r.name == name)
-            .map(|r| r.unit.as_ref())
+        self.response_spec(name).map(|spec| spec.unit.as_ref())
     }
 
     /// The fully resolved case at natural factor values `natural` (in factor order),

@@ -42,16 +42,17 @@ pub(super) async fn logs(
     // The log a job's solver writes: a built-in stage's, its DEM solver's, or the one a
     // user's own deck or script declares (`log:`), read from the stored study.
     let stage = job.stage_kind();
-    let built_in = match stage {
-        Some(kind) => orch_adapters::stage_for(kind).map(|stage| stage.log_file()),
-        None => Some(None),
-    };
-    let log_file: Option<String> = match built_in {
-        Some(Some(log)) => Some(log.to_string()),
-        Some(None) if orch_adapters::solver_for(&study.solver).is_some() => {
-            orch_adapters::solver_for(&study.solver).map(|solver| solver.log_file.to_string())
-        }
-        _ => stored_study(&store, &study).await?.ok().map(|stored| {
+    // A built-in stage's own log, `Some(None)` for one that reruns the design; `None`
+    // for a design job or a stage the study file configures (a script).
+    let built_in = stage
+        .and_then(orch_adapters::stage_for)
+        .map(|stage| stage.log_file());
+    let configured_stage = stage.is_some() && built_in.is_none();
+    let solver = orch_adapters::solver_for(&study.solver).filter(|_| !configured_stage);
+    let log_file: Option<String> = match (built_in.flatten(), solver) {
+        (Some(log), _) => Some(log.to_string()),
+        (None, Some(solver)) => Some(solver.log_file.to_string()),
+        (None, None) => stored_study(&store, &study).await?.ok().map(|stored| {
             match stage
                 .and_then(|kind| stored.stage(kind))
                 .and_then(|config| config.stage.log_file())

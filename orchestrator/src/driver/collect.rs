@@ -4,6 +4,9 @@
 
 use super::*;
 
+/// Reads a finished run's results from its run directory, off the async threads.
+type Parser = Box<dyn FnOnce(&Path) -> Result<RunResults, orch_adapters::ParseError> + Send>;
+
 /// What the store keeps of a run's results: every series bounded to
 /// [`orch_adapters::thin::MAX_SERIES_POINTS`], and what was thinned said in the note.
 pub(super) fn job_results(results: RunResults) -> JobResults {
@@ -102,8 +105,8 @@ impl<E: Executor> Driver<'_, E> {
     /// Ctrl-C or SIGTERM does not wait for a long read: [`Read::Interrupted`], and the
     /// job is left for `orch resume`.
     pub(super) async fn read_run(&mut self, job: &JobRow) -> Result<Read, DriverError> {
-        let (case, simulation) = self.case_and_simulation(job).await?;
-        let stage = match job.stage_kind() {
+        // A stage reads its run through what it follows; a design job with its case.
+        let parser: Parser = match job.stage_kind() {
             Some(kind) => {
                 let read = match self.stage_of(kind) {
                     Ok(config) => self
@@ -112,22 +115,23 @@ impl<E: Executor> Driver<'_, E> {
                         .map(|upstream| (config.stage.clone(), stage_case(config, job), upstream)),
                     Err(reason) => Err(reason),
                 };
-                match read {
-                    Ok(read) => Some(read),
+                let (stage, case, upstream) = match read {
+                    Ok(read) => read,
                     Err(reason) => return Ok(Read::Unreadable(reason)),
-                }
+                };
+                Box::new(move |dir| stage.results(&case, &upstream.view(), dir))
             }
-            None => None,
+            None => {
+                let (case, simulation) = self.case_and_simulation(job).await?;
+                Box::new(move |dir| simulation.results(&case, dir))
+            }
         };
         let dir = PathBuf::from(&job.run_dir);
         if self.stopped() {
             self.uncollected.insert(job.id);
             return Ok(Read::Interrupted);
         }
-        let parse = tokio::task::spawn_blocking(move || match stage {
-            Some((stage, case, upstream)) => stage.results(&case, &upstream.view(), &dir),
-            None => simulation.results(&case, &dir),
-        });
+        let parse = tokio::task::spawn_blocking(move || parser(&dir));
         let mut stop = self.stop.clone();
         let parsed = tokio::select! {
             joined = parse => {

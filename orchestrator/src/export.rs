@@ -10,6 +10,7 @@
 use std::collections::{BTreeSet, HashMap};
 use std::io::{self, Write};
 
+use orch_page::numbers::header;
 use serde_json::{Map, Value};
 
 use crate::store::{JobPage, JobPages, ResponseValues, SeriesPages, Store, StoreError, StudyRow};
@@ -44,14 +45,6 @@ pub enum Format {
     Csv,
     /// A JSON array of objects.
     Json,
-}
-
-/// `name [unit]`, or `name` alone when the unit is unknown or empty.
-pub fn header(name: &str, unit: Option<&str>) -> String {
-    match unit {
-        Some(unit) if !unit.is_empty() => format!("{name} [{unit}]"),
-        _ => name.to_string(),
-    }
 }
 
 /// `value` to 15 significant digits, written shortest: a design value computed from
@@ -729,13 +722,6 @@ mod tests {
         assert_eq!(parsed.as_array().unwrap().len(), 6);
         assert_eq!(parsed[5]["value"], 2.0);
         assert_eq!(parsed[5]["job"], last.as_str());
-    }
-
-    #[test]
-    fn headers_carry_units_only_when_there_is_one() {
-        assert_eq!(header("outlet_diameter", Some("m")), "outlet_diameter [m]");
-        assert_eq!(header("count", Some("")), "count");
-        assert_eq!(header("other", None), "other");
     }
 
     #[test]

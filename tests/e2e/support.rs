@@ -57,8 +57,13 @@ pub fn orch_bin() -> PathBuf {
         });
     for dir in [
         "orchestrator/src",
-        "orchestrator/migrations",
         "adapters/src",
+        "compare/src",
+        "executor/src",
+        "page/src",
+        "store/src",
+        "store/migrations",
+        "study/src",
         "dem/src",
         "granular/src",
         "metamodel/src",

@@ -12,8 +12,7 @@
 //! The surfaces are refitted from the stored runs ([`crate::surfaces`]).
 
 mod fidelity;
-pub mod html;
-pub mod plots;
+pub use orch_page::{html, plots};
 pub mod shown;
 
 use std::collections::{BTreeMap, HashMap};
@@ -177,7 +176,7 @@ fn front_section(data: &Data<'_>, round: &StoredRound) -> String {
     let objective_label = |(response, goal, _): &(String, String, f64)| {
         format!(
             "{goal} {}",
-            crate::export::header(response, Some(&data.unit(response)))
+            orch_page::numbers::header(response, Some(&data.unit(response)))
         )
     };
     if let [a, b] = first.objectives.as_slice() {
@@ -210,7 +209,7 @@ fn front_section(data: &Data<'_>, round: &StoredRound) -> String {
     headers.extend(
         data.factors
             .iter()
-            .map(|f| crate::export::header(&f.name, Some(&f.unit))),
+            .map(|f| orch_page::numbers::header(&f.name, Some(&f.unit))),
     );
     headers.push(String::new());
     let rows: Vec<Vec<String>> = round
@@ -259,7 +258,7 @@ async fn design_table(store: &Store, data: &Data<'_>, round: i64) -> Result<Stri
     headers.extend(
         data.factors
             .iter()
-            .map(|f| crate::export::header(&f.name, Some(&f.unit))),
+            .map(|f| orch_page::numbers::header(&f.name, Some(&f.unit))),
     );
     let rows: Vec<Vec<String>> = jobs
         .iter()

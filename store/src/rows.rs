@@ -391,18 +391,18 @@ pub struct JobRow {
     pub scheduler_state: Option<String>,
     /// A design job, or a stage job and its kind (`jobs.stage`: [`DESIGN_STAGE`] or the
     /// kind), decoded when the row is read.
-    /// ([`orch_adapters::Stage::kind`]) chained after the job `after_job_id`.
+    /// (the `kind` of an adapters `Stage`) chained after the job `after_job_id`.
     pub kind: JobKind,
     /// The job this one waits for and reads its inputs from (stages).
     pub after_job_id: Option<i64>,
-    /// The run's identity ([`crate::identity`]), once rendered; none for jobs of
+    /// The run's identity ([`orch_study::identity`]), once rendered; none for jobs of
     /// earlier versions.
     pub identity: Option<String>,
     /// `study/job` of the run this job reused instead of running, if it did.
     pub reused_from: Option<String>,
 }
 
-pub use crate::plan::{JobKind, PointRole, DESIGN_STAGE};
+pub use orch_study::plan::{JobKind, PointRole, DESIGN_STAGE};
 
 impl JobRow {
     /// The kind of stage this job is, or `None` for a design job.

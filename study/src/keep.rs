@@ -21,7 +21,7 @@ use std::path::{Path, PathBuf};
 use orch_adapters::UpstreamFiles;
 use serde::Deserialize;
 
-use crate::executor::{ATTEMPTS_LOG, EXIT_STATUS_FILE, STDERR_FILE, STDOUT_FILE};
+use orch_executor::{ATTEMPTS_LOG, EXIT_STATUS_FILE, STDERR_FILE, STDOUT_FILE};
 
 /// What a succeeded job's run directory keeps after its results are stored.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]

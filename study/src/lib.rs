@@ -2,6 +2,14 @@
 //!
 //! Parsing and validation happen before anything is written. Every error names the
 //! file, the line and column, the field and what was expected ([`StudyError`]).
+//!
+//! Beside the study, what is derived from it without I/O beyond the study's own
+//! files: [`plan`] names, seeds and chains every job of a point; [`identity`] is
+//! what makes two runs the same run; [`keep`] is which files a finished run keeps.
+
+pub mod identity;
+pub mod keep;
+pub mod plan;
 
 mod custom;
 mod design;
@@ -40,10 +48,10 @@ use file::{
 };
 pub use file::{ExecutorKind, StudyFile};
 
-use crate::executor::SlurmSettings;
 pub use design::{coded_design, default_test_points};
 pub use executor::ExecutorConfig;
 pub use locate::Location;
+use orch_executor::SlurmSettings;
 pub use stages::{Coupling, StageConfig, StageRef, StopWhen};
 pub use uncertainty::{mean_of, noise_range, Material, NoiseDesign, UncertaintyConfig};
 

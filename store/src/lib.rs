@@ -1,6 +1,6 @@
 //! The SQLite store: the single source of truth for studies, points and jobs.
 //!
-//! All SQL of `orch` lives in this module. Every change of state is one transaction;
+//! All SQL of `orch` lives in this crate. Every change of state is one transaction;
 //! a job transition is guarded by the state the caller expects (`UPDATE … WHERE state
 //! IN (…)`), so two processes can never both move the same job, and every transition
 //! is recorded in `job_events`. The database is `<project>/orch.db` in WAL mode.
@@ -39,8 +39,8 @@ pub use rows::{
 };
 pub use series::{SeriesPages, SeriesPoint};
 
-use crate::plan::{self, PlannedPoint};
-use crate::study::Study;
+use orch_study::plan::{self, PlannedPoint};
+use orch_study::Study;
 
 /// Name of the database file inside a project directory.
 pub const DATABASE_FILE: &str = "orch.db";
@@ -913,7 +913,7 @@ async fn lock_exclusively(path: &Path) -> std::io::Result<nix::fcntl::Flock<std:
     .map_err(std::io::Error::other)?
 }
 
-/// Inserts the points of `planned` (one round's, as [`crate::plan::plan_points`]
+/// Inserts the points of `planned` (one round's, as [`orch_study::plan::plan_points`]
 /// planned them) and their jobs as they are: the store decides nothing about them.
 pub(crate) async fn insert_planned(
     tx: &mut sqlx::SqliteConnection,

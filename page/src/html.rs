@@ -1,4 +1,4 @@
-//! HTML pieces of the report: escaping, numbers, tables and the page around them.
+//! HTML pieces of a page: escaping, numbers, tables and the page around them.
 //! Everything is inline (one `<style>`, no scripts, no fonts, no links out).
 
 /// `text` with `&`, `<`, `>` and quotes escaped for HTML text and attributes.
@@ -29,13 +29,13 @@ pub fn with_unit(v: f64, unit: &str) -> String {
 
 /// `name [unit]`, escaped, for table headers and axis labels.
 pub fn label(name: &str, unit: &str) -> String {
-    escape(&crate::export::header(name, Some(unit)))
+    escape(&crate::numbers::header(name, Some(unit)))
 }
 
 /// `name [unit]` for a figure's axis or title, as plain text: the SVG backend escapes
 /// what it draws, so text escaped here would show its entities (`&lt;1&gt;`).
 pub fn svg_label(name: &str, unit: &str) -> String {
-    crate::export::header(name, Some(unit))
+    crate::numbers::header(name, Some(unit))
 }
 
 /// A table: escaped header cells, and body cells that are already HTML.

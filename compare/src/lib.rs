@@ -12,7 +12,7 @@
 //! the machine slow each other a little, equally for both solvers, so the ratio is
 //! the figure to watch, not the absolute speeds.
 //!
-//! A rendered run whose identity ([`crate::identity`]: its files, the program and its
+//! A rendered run whose identity ([`orch_study::identity`]: its files, the program and its
 //! version) an earlier comparison of the project already made is not run again: its
 //! stored responses are taken, but not its speed, which belongs to the moment it ran
 //! (the speeds and their ratio are of the runs made in this invocation only). A
@@ -34,7 +34,7 @@ use orch_adapters::simulation::SOLVER_THROUGHPUT;
 use orch_adapters::{liggghts, DemSolver};
 use tokio::sync::watch;
 
-use crate::executor::Executor;
+use orch_executor::Executor;
 
 pub use analysis::{ResponseComparison, Throughput, Verdict};
 pub use suite::{Suite, SuiteCase, SuiteError};
@@ -280,7 +280,7 @@ fn percent(a: f64) -> String {
 
 /// A number with four significant digits (`–` for NaN).
 fn number(v: f64) -> String {
-    crate::report::html::number(v)
+    orch_page::numbers::number(v)
 }
 
 /// The table of an outcome, as printed: one line per case and response, then speeds.

@@ -95,7 +95,7 @@ impl Store {
             .map_err(query_error("commit a job transition"))
     }
 
-    /// pending → rendered, with the run's identity ([`crate::identity`]).
+    /// pending → rendered, with the run's identity ([`orch_study::identity`]).
     pub async fn mark_rendered(&self, job_id: i64, identity: &str) -> Result<(), StoreError> {
         self.transition_alone(
             job_id,

@@ -3,8 +3,8 @@
 
 use std::collections::BTreeMap;
 
-use crate::report::{html, plots};
-use crate::store::{ResponseRecord, SpeedRecord, StoredComparison};
+use orch_page::{html, plots};
+use orch_store::{ResponseRecord, SpeedRecord, StoredComparison};
 
 use super::{SuiteOutcome, NATIVE};
 
@@ -397,7 +397,7 @@ fn over_time(clean: &[&StoredComparison]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::store::ComparisonRecord;
+    use orch_store::ComparisonRecord;
 
     fn run(id: i64, difference: f64, perturbation: &str) -> StoredComparison {
         timed(id, difference, perturbation, 4e6, Some(2e6))

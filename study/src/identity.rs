@@ -24,7 +24,7 @@ use std::sync::{LazyLock, Mutex};
 use orch_adapters::CommandSpec;
 use sha2::{Digest, Sha256};
 
-use crate::executor::ATTEMPTS_LOG;
+use orch_executor::ATTEMPTS_LOG;
 
 /// The identity of the run rendered into `run_dir` to be run by `command` under
 /// `conditions` (text of the study's settings that change the result), in hex. Files

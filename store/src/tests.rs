@@ -1,7 +1,7 @@
 use std::path::Path;
 
 use super::*;
-use crate::study::Study;
+use orch_study::Study;
 
 const STUDY: &str = "\
 name: small
@@ -371,7 +371,7 @@ async fn a_job_of_a_new_stage_kind_is_stored_without_a_migration() {
     let jobs = store.jobs(id).await.unwrap();
     let post = jobs.iter().find(|j| j.name == "p000r0-post").unwrap();
     assert_eq!(post.stage_kind(), Some("script"));
-    assert_eq!(post.kind, crate::store::JobKind::Stage("script"));
+    assert_eq!(post.kind, crate::JobKind::Stage("script"));
     assert_eq!(post.after_job_id, Some(design.id));
     let unknown = insert("dpm", "p000r0-dpm")
         .await

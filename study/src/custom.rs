@@ -239,7 +239,7 @@ impl Checker<'_> {
                 self.relative_path(&format!("{at}.log"), log)?;
                 log.clone()
             }
-            None => crate::executor::STDOUT_FILE.to_string(),
+            None => orch_executor::STDOUT_FILE.to_string(),
         };
         let mut parameters = Vec::new();
         for (name, declared) in &case.parameters {

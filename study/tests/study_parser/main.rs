@@ -5,7 +5,7 @@
 
 use std::path::{Path, PathBuf};
 
-use orch::study::{Study, StudyError};
+use orch_study::{Study, StudyError};
 use proptest::prelude::*;
 
 /// The workspace root.

@@ -70,7 +70,7 @@ impl Checker<'_> {
                         return Err(self.error("executor.max_submitted", "expected at least 1"))
                     }
                     Some(n) => n,
-                    None => crate::executor::slurm::DEFAULT_MAX_SUBMITTED,
+                    None => orch_executor::slurm::DEFAULT_MAX_SUBMITTED,
                 };
                 (max_submitted, Some(self.slurm_settings(executor)?))
             }
@@ -158,7 +158,7 @@ impl Checker<'_> {
         }
         let poll_interval = executor
             .poll_interval
-            .map_or(crate::executor::slurm::DEFAULT_POLL_INTERVAL, |t| t.0);
+            .map_or(orch_executor::slurm::DEFAULT_POLL_INTERVAL, |t| t.0);
         if poll_interval < Duration::from_millis(200) {
             return Err(self.error(
                 "executor.poll_interval",

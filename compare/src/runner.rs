@@ -12,7 +12,7 @@ use orch_adapters::{equipment_for, CommandSpec, EquipmentOnSolver, Simulation};
 use tokio::sync::watch;
 
 use super::{analysis, Made, RunOptions, RunOutcome, RunSpec, SuiteCase, NATIVE};
-use crate::executor::{Executor, JobStatus, LaunchSpec, Watched};
+use orch_executor::{Executor, JobStatus, LaunchSpec, Watched};
 
 /// A run rendered and not made before: what launching and reading it needs.
 struct Ready {
@@ -154,7 +154,7 @@ pub(super) async fn run_all<E: Executor>(
     }
     // Let the processes of stopped runs go before their directories are read or removed.
     let deadline =
-        Instant::now() + crate::executor::local::TERMINATION_GRACE + Duration::from_secs(2);
+        Instant::now() + orch_executor::local::TERMINATION_GRACE + Duration::from_secs(2);
     while executor.tidy() > 0 && Instant::now() < deadline {
         tokio::time::sleep(Duration::from_millis(50)).await;
     }
@@ -217,7 +217,7 @@ fn prepare(
         .render(&parameters, &spec.dir)
         .map_err(|e| format!("cannot render: {e}"))?;
     let command = simulation.command();
-    let identity = crate::identity::of_run(&spec.dir, &command, "")
+    let identity = orch_study::identity::of_run(&spec.dir, &command, "")
         .map_err(|e| format!("cannot read the rendered run: {e}"))?;
     if let Some(values) = known.get(&identity) {
         // A reused run brings what it measured of the flow, not its speed: speed is of

@@ -20,14 +20,14 @@ use sha2::{Digest, Sha256};
 
 use orch_adapters::Stage;
 
-use crate::study::{Coupling, DesignPoint, Study};
+use crate::{Coupling, DesignPoint, Study};
 
 /// `jobs.stage` of a design job: the simulation of a design point itself.
 pub const DESIGN_STAGE: &str = "dem";
 
 /// What a job runs: the design point's simulation, or a stage after another job. It is
-/// `jobs.stage` decoded, as states are: a kind this orch does not know is an
-/// [`crate::store::UnknownState`] naming the row, never taken for a design job.
+/// `jobs.stage` decoded, as states are: a kind this orch does not know is the
+/// store's `UnknownState` error naming the row, never taken for a design job.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum JobKind {
     /// The design point's own simulation ([`DESIGN_STAGE`] in the store).

@@ -8,7 +8,7 @@ use sqlx::Row;
 
 use super::rows::parse_state;
 use super::{query_error, Decision, Store, StoreError};
-use crate::study::{DesignPoint, Study};
+use orch_study::{DesignPoint, Study};
 
 /// A fitted (or unfittable) surface of one response, to record.
 #[derive(Debug, Clone)]
@@ -288,7 +288,7 @@ impl Store {
                     .await
                     .map_err(query_error("record the next round's box"))?;
             }
-            for planned in crate::plan::plan_round(study, round + 1, points, tests) {
+            for planned in orch_study::plan::plan_round(study, round + 1, points, tests) {
                 super::insert_planned(&mut tx, study_id, round + 1, &planned, runs_dir).await?;
             }
         }

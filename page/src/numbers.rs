@@ -1,4 +1,5 @@
-//! Numbers as people read them, in tables, reports and warnings alike.
+//! Numbers as people read them, in tables, reports and warnings alike, and the
+//! headers of their columns.
 
 /// A number with four significant digits, in scientific notation when it is very
 /// small or large; `–` for NaN.
@@ -26,5 +27,25 @@ pub fn number(v: f64) -> String {
         text.trim_end_matches('0').trim_end_matches('.').to_string()
     } else {
         text
+    }
+}
+
+/// `name [unit]`, or `name` alone when the unit is unknown or empty.
+pub fn header(name: &str, unit: Option<&str>) -> String {
+    match unit {
+        Some(unit) if !unit.is_empty() => format!("{name} [{unit}]"),
+        _ => name.to_string(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn headers_carry_units_only_when_there_is_one() {
+        assert_eq!(header("outlet_diameter", Some("m")), "outlet_diameter [m]");
+        assert_eq!(header("count", Some("")), "count");
+        assert_eq!(header("other", None), "other");
     }
 }

@@ -12,9 +12,38 @@
 //! terms instead (see [`crate::basis`]).
 
 use crate::fit::{Interval, Quality};
+use crate::kriging::KrigingError;
 use crate::kriging::{Kriging, KrigingOptions};
 use crate::levels::{combination_of, combinations, numeric_factors, numeric_part};
 use crate::surrogate::normal_interval;
+
+/// Why Kriging per combination of text levels cannot be built.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum PerLevelError {
+    /// No numeric factor to correlate runs over.
+    #[error("every factor is text: Kriging needs a numeric factor to correlate runs over; the polynomials' indicator terms fit text factors")]
+    AllText,
+    /// A combination of levels has no runs.
+    #[error("{combination} has no runs; every combination of levels needs its own")]
+    NoRuns {
+        /// The combination, as [`combination_name`] writes it.
+        combination: String,
+    },
+    /// No hyperparameters were given for a combination.
+    #[error("no model for {combination}")]
+    NoModel {
+        /// The combination, as [`combination_name`] writes it.
+        combination: String,
+    },
+    /// A combination's Kriging model failed.
+    #[error("at {combination}: {source}")]
+    Combination {
+        /// The combination, as [`combination_name`] writes it.
+        combination: String,
+        /// Why its model failed.
+        source: KrigingError,
+    },
+}
 
 /// Independent Kriging models, one per combination of the text factors' levels.
 #[derive(Debug, Clone)]
@@ -43,10 +72,12 @@ impl KrigingPerLevel {
         x: &[Vec<f64>],
         y: &[f64],
         options: &KrigingOptions,
-    ) -> Result<KrigingPerLevel, String> {
+    ) -> Result<KrigingPerLevel, PerLevelError> {
         KrigingPerLevel::build(levels, x, y, |combination, xs, ys| {
-            Kriging::fit(xs, ys, options)
-                .map_err(|e| format!("at {}: {e}", combination_name(combination)))
+            Kriging::fit(xs, ys, options).map_err(|source| PerLevelError::Combination {
+                combination: combination_name(combination),
+                source,
+            })
         })
     }
 
@@ -57,15 +88,20 @@ impl KrigingPerLevel {
         hyperparameters: &[(Vec<u32>, Kriging)],
         x: &[Vec<f64>],
         y: &[f64],
-    ) -> Result<KrigingPerLevel, String> {
+    ) -> Result<KrigingPerLevel, PerLevelError> {
         KrigingPerLevel::build(levels, x, y, |combination, xs, ys| {
             let (_, model) = hyperparameters
                 .iter()
                 .find(|(c, _)| c == combination)
-                .ok_or_else(|| format!("no model for {}", combination_name(combination)))?;
+                .ok_or_else(|| PerLevelError::NoModel {
+                    combination: combination_name(combination),
+                })?;
             model
                 .refit(xs, ys)
-                .map_err(|e| format!("at {}: {e}", combination_name(combination)))
+                .map_err(|source| PerLevelError::Combination {
+                    combination: combination_name(combination),
+                    source,
+                })
         })
     }
 
@@ -73,11 +109,11 @@ impl KrigingPerLevel {
         levels: &[u32],
         x: &[Vec<f64>],
         y: &[f64],
-        fit: impl Fn(&[u32], &[Vec<f64>], &[f64]) -> Result<Kriging, String>,
-    ) -> Result<KrigingPerLevel, String> {
+        fit: impl Fn(&[u32], &[Vec<f64>], &[f64]) -> Result<Kriging, PerLevelError>,
+    ) -> Result<KrigingPerLevel, PerLevelError> {
         let k = x.first().map_or(levels.len(), Vec::len);
         if numeric_factors(levels, k).is_empty() {
-            return Err("every factor is text: Kriging needs a numeric factor to correlate runs over; the polynomials' indicator terms fit text factors".into());
+            return Err(PerLevelError::AllText);
         }
         let at: Vec<Vec<u32>> = x.iter().map(|p| combination_of(levels, p)).collect();
         let mut models = Vec::new();
@@ -85,10 +121,9 @@ impl KrigingPerLevel {
         for combination in combinations(levels) {
             let runs: Vec<usize> = (0..y.len()).filter(|&i| at[i] == combination).collect();
             if runs.is_empty() {
-                return Err(format!(
-                    "{} has no runs; every combination of levels needs its own",
-                    combination_name(&combination)
-                ));
+                return Err(PerLevelError::NoRuns {
+                    combination: combination_name(&combination),
+                });
             }
             let xs: Vec<Vec<f64>> = runs.iter().map(|&i| numeric_part(levels, &x[i])).collect();
             let ys: Vec<f64> = runs.iter().map(|&i| y[i]).collect();
@@ -264,11 +299,21 @@ mod tests {
             KrigingPerLevel::fit(&[0, 3], &xs, &ys, &KrigingOptions::default()).unwrap_err();
         assert_eq!(
             error,
+            PerLevelError::NoRuns {
+                combination: "levels [3]".into()
+            }
+        );
+        assert_eq!(
+            error.to_string(),
             "levels [3] has no runs; every combination of levels needs its own"
         );
         let text_only: Vec<Vec<f64>> = x.iter().map(|p| vec![p[1]]).collect();
         let error =
             KrigingPerLevel::fit(&[3], &text_only, &y, &KrigingOptions::default()).unwrap_err();
-        assert!(error.starts_with("every factor is text"), "{error}");
+        assert_eq!(error, PerLevelError::AllText);
+        assert!(
+            error.to_string().starts_with("every factor is text"),
+            "{error}"
+        );
     }
 }

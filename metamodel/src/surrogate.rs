@@ -28,11 +28,13 @@
 use rayon::prelude::*;
 
 use crate::basis::{Basis, BasisKind};
-use crate::co_kriging::{split_by_level, CoKriging, LevelHyperparameters, LevelRuns};
-use crate::fit::{test_quality, Fit, Interval, Quality, TestQuality};
-use crate::kriging::{Kernel, Kriging, KrigingOptions, Trend};
+use crate::co_kriging::{
+    split_by_level, CoKriging, CoKrigingError, LevelHyperparameters, LevelRuns,
+};
+use crate::fit::{test_quality, Fit, FitError, Interval, Quality, TestQuality};
+use crate::kriging::{Kernel, Kriging, KrigingError, KrigingOptions, Trend};
 use crate::levels::{combination_of, numeric_part};
-use crate::per_level::KrigingPerLevel;
+use crate::per_level::{KrigingPerLevel, PerLevelError};
 use crate::propagate::Distribution;
 use crate::prune::prune;
 use crate::sobol::{legendre_sobol, sobol_indices, Estimate, SobolIndices};
@@ -132,6 +134,44 @@ pub enum ModelSpec {
     },
 }
 
+/// Why no surrogate of a response could be fitted, or a stored one rebuilt.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SurrogateError {
+    /// A polynomial could not be fitted.
+    #[error(transparent)]
+    Polynomial(#[from] FitError),
+    /// A Kriging model could not be fitted.
+    #[error(transparent)]
+    Kriging(#[from] KrigingError),
+    /// Kriging per combination of text levels could not be fitted.
+    #[error(transparent)]
+    PerLevel(#[from] PerLevelError),
+    /// Co-Kriging over fidelity levels could not be fitted.
+    #[error(transparent)]
+    CoKriging(#[from] CoKrigingError),
+    /// Co-Kriging needs runs at every level from 0 to the highest present.
+    #[error("no run at fidelity level {level}; every level needs runs")]
+    MissingLevel {
+        /// The level without runs (0 the cheapest).
+        level: usize,
+    },
+    /// Kriging is not fitted to more than [`MAX_KRIGING_RUNS`] runs.
+    #[error("not fitted: {runs} runs, more than the {MAX_KRIGING_RUNS} Kriging is fitted to (its cost grows as the cube of the runs)")]
+    TooManyRunsForKriging {
+        /// Runs given.
+        runs: usize,
+    },
+    /// A stored per-level model held a model that is not Kriging.
+    #[error("a per-level model must be Kriging")]
+    PerLevelNotKriging,
+    /// No candidate of the model choice could be fitted.
+    #[error("no surrogate could be fitted ({})", reasons.join("; "))]
+    NoCandidate {
+        /// Each candidate's `name: why`.
+        reasons: Vec<String>,
+    },
+}
+
 /// How one candidate did.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Candidate {
@@ -166,7 +206,7 @@ pub fn choose_co_kriging(
     x: &[Vec<f64>],
     y: &[f64],
     kriging: &KrigingOptions,
-) -> Result<Choice, String> {
+) -> Result<Choice, SurrogateError> {
     let surrogate = Surrogate::fit_co_kriging(x, y, kriging)?;
     let Surrogate::CoKriging { model, quality } = &surrogate else {
         unreachable!("fit_co_kriging gives co-Kriging");
@@ -219,7 +259,7 @@ pub fn choose(
     x: &[Vec<f64>],
     y: &[f64],
     kriging: &KrigingOptions,
-) -> Result<Choice, String> {
+) -> Result<Choice, SurrogateError> {
     let k = factor_names.len();
     let mut fitted: Vec<(Candidate, Option<Surrogate>)> = Vec::new();
     // Per candidate, the leave-one-out residuals it is scored by, when they are not its
@@ -317,10 +357,7 @@ pub fn choose(
                     .iter()
                     .map(|(c, _)| format!("{}: {}", c.name, c.note.clone().unwrap_or_default()))
                     .collect();
-                return Err(format!(
-                    "no surrogate could be fitted ({})",
-                    reasons.join("; ")
-                ));
+                return Err(SurrogateError::NoCandidate { reasons });
             };
             (i, false)
         }
@@ -351,16 +388,15 @@ fn kriging_candidate(
         name.push_str(", one per level");
     }
     let fit = if y.len() > MAX_KRIGING_RUNS {
-        Err(format!(
-            "not fitted: {} runs, more than the {MAX_KRIGING_RUNS} Kriging is fitted to (its cost grows as the cube of the runs)",
-            y.len()
-        ))
+        Err(SurrogateError::TooManyRunsForKriging { runs: y.len() })
     } else if has_text {
-        KrigingPerLevel::fit(levels, x, y, kriging).map(|m| Surrogate::KrigingPerLevel(Box::new(m)))
+        KrigingPerLevel::fit(levels, x, y, kriging)
+            .map(|m| Surrogate::KrigingPerLevel(Box::new(m)))
+            .map_err(SurrogateError::from)
     } else {
         Kriging::fit(x, y, kriging)
             .map(|m| Surrogate::kriging(m, y))
-            .map_err(|e| e.to_string())
+            .map_err(SurrogateError::from)
     };
     match fit {
         Ok(surrogate) => {
@@ -378,7 +414,7 @@ fn kriging_candidate(
                 name,
                 parameters: 0,
                 loo_rmse: None,
-                note: Some(e),
+                note: Some(e.to_string()),
             },
             None,
         ),
@@ -526,17 +562,15 @@ impl Surrogate {
         x: &[Vec<f64>],
         y: &[f64],
         options: &KrigingOptions,
-    ) -> Result<Surrogate, String> {
+    ) -> Result<Surrogate, SurrogateError> {
         let split = split_by_level(x, y);
         if let Some(level) = split.iter().position(|(x, _)| x.is_empty()) {
-            return Err(format!(
-                "no run at fidelity level {level}; every level needs runs"
-            ));
+            return Err(SurrogateError::MissingLevel { level });
         }
         let runs: Vec<LevelRuns<'_>> = split.iter().map(|(x, y)| LevelRuns { x, y }).collect();
         CoKriging::fit(&runs, options)
             .map(|model| Surrogate::co_kriging(model, &split[split.len() - 1].1))
-            .map_err(|e| e.to_string())
+            .map_err(SurrogateError::from)
     }
 
     /// A co-Kriging surrogate with its quality on the top level's responses `y_top`.
@@ -729,7 +763,7 @@ impl Surrogate {
         factor_names: &[String],
         x: &[Vec<f64>],
         y: &[f64],
-    ) -> Result<Surrogate, String> {
+    ) -> Result<Surrogate, SurrogateError> {
         match spec {
             ModelSpec::Polynomial {
                 kind,
@@ -740,7 +774,7 @@ impl Surrogate {
                     Basis::from_terms_with_levels(*kind, factor_names.len(), levels, terms.clone());
                 Fit::new(basis, factor_names, x, y)
                     .map(Surrogate::Polynomial)
-                    .map_err(|e| e.to_string())
+                    .map_err(SurrogateError::from)
             }
             ModelSpec::Kriging {
                 kernel,
@@ -758,7 +792,7 @@ impl Surrogate {
                 *noise_variance,
             )
             .map(|model| Surrogate::kriging(model, y))
-            .map_err(|e| e.to_string()),
+            .map_err(SurrogateError::from),
             ModelSpec::KrigingPerLevel { levels, models } => {
                 // Each combination's hyperparameters, carried by a model fitted to its
                 // own runs with them.
@@ -775,12 +809,13 @@ impl Surrogate {
                     let Surrogate::Kriging { model, .. } =
                         Surrogate::rebuild(spec, factor_names, &xs, &ys)?
                     else {
-                        return Err("a per-level model must be Kriging".into());
+                        return Err(SurrogateError::PerLevelNotKriging);
                     };
                     carriers.push((combination.clone(), *model));
                 }
                 KrigingPerLevel::with_hyperparameters(levels, &carriers, x, y)
                     .map(|m| Surrogate::KrigingPerLevel(Box::new(m)))
+                    .map_err(SurrogateError::from)
             }
             ModelSpec::CoKriging {
                 kernel,
@@ -792,7 +827,7 @@ impl Surrogate {
                     split.iter().map(|(x, y)| LevelRuns { x, y }).collect();
                 CoKriging::with_hyperparameters(&runs, *kernel, *trend, levels)
                     .map(|model| Surrogate::co_kriging(model, &split[split.len() - 1].1))
-                    .map_err(|e| e.to_string())
+                    .map_err(SurrogateError::from)
             }
         }
     }
@@ -848,7 +883,7 @@ mod tests {
     }
 
     /// The automatic choice in the Legendre basis over `k` numeric factors.
-    fn auto(k: usize, x: &[Vec<f64>], y: &[f64]) -> Result<Choice, String> {
+    fn auto(k: usize, x: &[Vec<f64>], y: &[f64]) -> Result<Choice, SurrogateError> {
         choose(
             ModelChoice::Auto,
             BasisKind::Legendre,
@@ -897,7 +932,12 @@ mod tests {
             &y,
             &KrigingOptions::default(),
         );
-        assert!(asked_for_kriging.unwrap_err().contains("not fitted"));
+        let error = asked_for_kriging.unwrap_err();
+        assert!(
+            matches!(&error, SurrogateError::NoCandidate { reasons }
+                if reasons.len() == 1 && reasons[0].contains("not fitted")),
+            "{error}"
+        );
     }
 
     #[test]
@@ -1101,7 +1141,11 @@ mod tests {
         )
         .unwrap_err();
         assert!(
-            error.starts_with(
+            matches!(error, SurrogateError::NoCandidate { .. }),
+            "{error}"
+        );
+        assert!(
+            error.to_string().starts_with(
                 "no surrogate could be fitted (quadratic, all 6 terms: 2 runs cannot fit 6 terms"
             ),
             "{error}"
@@ -1146,6 +1190,10 @@ mod tests {
         let missing: Vec<Vec<f64>> = dear.clone();
         let error =
             Surrogate::fit_co_kriging(&missing, &y[9..], &KrigingOptions::default()).unwrap_err();
-        assert!(error.contains("no run at fidelity level 0"), "{error}");
+        assert_eq!(error, SurrogateError::MissingLevel { level: 0 });
+        assert!(
+            error.to_string().contains("no run at fidelity level 0"),
+            "{error}"
+        );
     }
 }

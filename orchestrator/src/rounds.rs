@@ -11,7 +11,7 @@ use std::collections::HashMap;
 use std::path::Path;
 
 use orch_metamodel::propose::converged;
-use orch_metamodel::surrogate::{choose, choose_co_kriging, Choice, Surrogate};
+use orch_metamodel::surrogate::{choose, choose_co_kriging, Choice, Surrogate, SurrogateError};
 use orch_metamodel::{lack_of_fit, BasisKind, Goal, KrigingOptions, Nugget};
 
 use crate::store::{
@@ -202,7 +202,8 @@ async fn analyse(
             .fits
             .iter()
             .find(|f| f.response == missing)
-            .and_then(|f| f.result.as_ref().err().cloned())
+            .and_then(|f| f.result.as_ref().err())
+            .map(ToString::to_string)
             .unwrap_or_default();
         record.decision = Decision::NoOptimum;
         record.note = format!("no surface for {missing}: {why}");
@@ -445,41 +446,43 @@ fn fit_record(
     response: &str,
     basis_name: &str,
     observed: &Observed,
-    choice: Result<Choice, String>,
+    choice: Result<Choice, SurrogateError>,
     seed: u64,
 ) -> FitRecord {
     let (x, y) = (&observed.design.0, &observed.design.1);
-    let mut record = FitRecord {
-        response: response.to_string(),
-        basis: basis_name.to_string(),
-        order: 0,
-        runs: y.len(),
-        result: Err(String::new()),
-        test: None,
-        model: None,
-        spec: None,
-        candidates: Vec::new(),
-        lack_of_fit: None,
-        sensitivities: Vec::new(),
-    };
     let choice = match choice {
         Ok(choice) => choice,
         Err(why) => {
-            record.result = Err(why);
-            return record;
+            return FitRecord {
+                response: response.to_string(),
+                basis: basis_name.to_string(),
+                order: 0,
+                runs: y.len(),
+                result: Err(why),
+                test: None,
+                model: None,
+                spec: None,
+                candidates: Vec::new(),
+                lack_of_fit: None,
+                sensitivities: Vec::new(),
+            }
         }
     };
-    let surrogate = choice.surrogate;
-    record.candidates = choice
-        .candidates
+    let Choice {
+        surrogate,
+        candidates,
+        chosen,
+        by_prognosis,
+    } = choice;
+    let candidate_scores = candidates
         .iter()
         .enumerate()
         .map(|(i, c)| CandidateScore {
             model: c.name.clone(),
             parameters: c.parameters,
             loo_rmse: c.loo_rmse,
-            chosen: i == choice.chosen,
-            note: match (&c.note, i == choice.chosen && !choice.by_prognosis) {
+            chosen: i == chosen,
+            note: match (&c.note, i == chosen && !by_prognosis) {
                 (_, true) => {
                     Some("kept without a score: no candidate could be cross-validated".into())
                 }
@@ -487,24 +490,29 @@ fn fit_record(
             },
         })
         .collect();
-    record.model = Some(choice.candidates[choice.chosen].name.clone());
-    record.spec = Some(surfaces::spec_json(&surrogate.spec()));
-    record.order = surrogate.polynomial().map_or(0, |fit| fit.basis.order);
-    record.lack_of_fit = surrogate
-        .polynomial()
-        .and_then(|fit| lack_of_fit(fit, x, y))
-        .map(|l| LackOfFitRow {
-            f: l.f,
-            p: l.p_value,
-            lack_of_fit_dof: l.dof_lack_of_fit,
-            pure_error_dof: l.dof_pure_error,
-        });
-    record.sensitivities = surfaces::sensitivities(&surrogate, seed);
-    record.test = surrogate
-        .test(&observed.test.0, &observed.test.1)
-        .map(|quality| (observed.test.1.len(), quality));
-    record.result = Ok(surrogate);
-    record
+    FitRecord {
+        response: response.to_string(),
+        basis: basis_name.to_string(),
+        order: surrogate.polynomial().map_or(0, |fit| fit.basis.order),
+        runs: y.len(),
+        test: surrogate
+            .test(&observed.test.0, &observed.test.1)
+            .map(|quality| (observed.test.1.len(), quality)),
+        model: Some(candidates[chosen].name.clone()),
+        spec: Some(surfaces::spec_json(&surrogate.spec())),
+        candidates: candidate_scores,
+        lack_of_fit: surrogate
+            .polynomial()
+            .and_then(|fit| lack_of_fit(fit, x, y))
+            .map(|l| LackOfFitRow {
+                f: l.f,
+                p: l.p_value,
+                lack_of_fit_dof: l.dof_lack_of_fit,
+                pure_error_dof: l.dof_pure_error,
+            }),
+        sensitivities: surfaces::sensitivities(&surrogate, seed),
+        result: Ok(surrogate),
+    }
 }
 
 /// Test support: a study stored from `text` whose round-0 jobs all succeeded with the

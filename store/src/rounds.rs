@@ -2,7 +2,7 @@
 
 use std::path::Path;
 
-use orch_metamodel::surrogate::Surrogate;
+use orch_metamodel::surrogate::{Surrogate, SurrogateError};
 use orch_metamodel::{FactorRange, Optimum, Spread, TestQuality};
 use sqlx::Row;
 
@@ -21,8 +21,9 @@ pub struct FitRecord {
     pub order: u32,
     /// Runs available.
     pub runs: usize,
-    /// The chosen surrogate, or why there is none.
-    pub result: Result<Surrogate, String>,
+    /// The chosen surrogate, or why there is none (stored as its message, which is
+    /// what status and the report show).
+    pub result: Result<Surrogate, SurrogateError>,
     /// Held-out test runs and the fit's error on them.
     pub test: Option<(usize, TestQuality)>,
     /// The chosen surrogate's name for people, e.g. `quadratic, 5 of 6 terms`.
@@ -526,7 +527,7 @@ async fn insert_fit(
 ) -> Result<(), StoreError> {
     let (quality, error) = match &fit.result {
         Ok(s) => (Some(s.quality()), None),
-        Err(e) => (None, Some(e.clone())),
+        Err(e) => (None, Some(e.to_string())),
     };
     let terms = fit.result.as_ref().map(|s| s.parameters()).unwrap_or(0);
     let fit_id: i64 = sqlx::query(

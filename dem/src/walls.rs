@@ -414,57 +414,10 @@ pub fn wall_load(
         );
         return load;
     }
-    let touches = &mut touches[..count];
-
-    // Rules 1 and 2: faces first, then edges, then vertices, each only once.
-    let rank = |t: &Option<Touch>| match t.map(|t| t.feature) {
-        Some(FeatureId::Face(_)) => 0,
-        Some(FeatureId::Edge(_)) => 1,
-        _ => 2,
-    };
-    touches.sort_by_key(rank);
-    let mut counted: [Option<Touch>; 8] = [None; 8];
-    let mut n_counted = 0;
-    for touch in touches.iter().flatten() {
-        let mesh = &walls.meshes[touch.mesh as usize];
-        let covered = counted[..n_counted].iter().flatten().any(|c| {
-            c.mesh == touch.mesh
-                && (c.feature == touch.feature
-                    || match (c.feature, touch.feature) {
-                        (FeatureId::Face(face), feature) => mesh.face_contains(face, feature),
-                        (FeatureId::Edge(edge), FeatureId::Vertex(vertex)) => {
-                            mesh.edge_contains(edge, vertex)
-                        }
-                        _ => false,
-                    })
-        });
-        if !covered && n_counted < counted.len() {
-            counted[n_counted] = Some(*touch);
-            n_counted += 1;
-        }
-    }
-    // Rule 3: deepest first; drop a contact nearly parallel to a kept one on its mesh.
-    let counted = &mut counted[..n_counted];
-    counted.sort_by(|a, b| {
-        let depth = |t: &Option<Touch>| t.map_or(0.0, |t| t.overlap_m);
-        depth(b).total_cmp(&depth(a))
-    });
     let previous = *contacts;
+    let (kept, n_kept) = kept_touches(walls, &mut touches[..count]);
     let mut inherited = [false; MAX_WALL_CONTACTS];
     contacts.len = 0;
-    let mut kept: [Option<Touch>; MAX_WALL_CONTACTS] = [None; MAX_WALL_CONTACTS];
-    let mut n_kept = 0;
-    for touch in counted.iter().flatten() {
-        let parallel = kept[..n_kept]
-            .iter()
-            .flatten()
-            .any(|k| k.mesh == touch.mesh && k.normal.dot(&touch.normal) > walls.cos_coplanar);
-        if parallel || n_kept == MAX_WALL_CONTACTS {
-            continue;
-        }
-        kept[n_kept] = Some(*touch);
-        n_kept += 1;
-    }
     // Histories: the same feature first, else a nearly parallel contact on the mesh.
     let mut shears = [Vec3::zeros(); MAX_WALL_CONTACTS];
     let mut continued = [false; MAX_WALL_CONTACTS];
@@ -501,6 +454,63 @@ pub fn wall_load(
         );
     }
     load
+}
+
+/// Of several `touches`, the contacts that count, deepest first (rules 1 to 3 above):
+/// faces before edges before vertices, a feature covered by a counted one dropped, and
+/// a contact nearly parallel to a deeper kept one on its mesh dropped.
+#[inline]
+fn kept_touches(
+    walls: &WallState<'_>,
+    touches: &mut [Option<Touch>],
+) -> ([Option<Touch>; MAX_WALL_CONTACTS], usize) {
+    // Rules 1 and 2: faces first, then edges, then vertices, each only once.
+    let rank = |t: &Option<Touch>| match t.map(|t| t.feature) {
+        Some(FeatureId::Face(_)) => 0,
+        Some(FeatureId::Edge(_)) => 1,
+        _ => 2,
+    };
+    touches.sort_by_key(rank);
+    let mut counted: [Option<Touch>; 8] = [None; 8];
+    let mut n_counted = 0;
+    for touch in touches.iter().flatten() {
+        let mesh = &walls.meshes[touch.mesh as usize];
+        let covered = counted[..n_counted].iter().flatten().any(|c| {
+            c.mesh == touch.mesh
+                && (c.feature == touch.feature
+                    || match (c.feature, touch.feature) {
+                        (FeatureId::Face(face), feature) => mesh.face_contains(face, feature),
+                        (FeatureId::Edge(edge), FeatureId::Vertex(vertex)) => {
+                            mesh.edge_contains(edge, vertex)
+                        }
+                        _ => false,
+                    })
+        });
+        if !covered && n_counted < counted.len() {
+            counted[n_counted] = Some(*touch);
+            n_counted += 1;
+        }
+    }
+    // Rule 3: deepest first; drop a contact nearly parallel to a kept one on its mesh.
+    let counted = &mut counted[..n_counted];
+    counted.sort_by(|a, b| {
+        let depth = |t: &Option<Touch>| t.map_or(0.0, |t| t.overlap_m);
+        depth(b).total_cmp(&depth(a))
+    });
+    let mut kept: [Option<Touch>; MAX_WALL_CONTACTS] = [None; MAX_WALL_CONTACTS];
+    let mut n_kept = 0;
+    for touch in counted.iter().flatten() {
+        let parallel = kept[..n_kept]
+            .iter()
+            .flatten()
+            .any(|k| k.mesh == touch.mesh && k.normal.dot(&touch.normal) > walls.cos_coplanar);
+        if parallel || n_kept == MAX_WALL_CONTACTS {
+            continue;
+        }
+        kept[n_kept] = Some(*touch);
+        n_kept += 1;
+    }
+    (kept, n_kept)
 }
 
 /// The history a lone touch carries on, by the rules above with nothing inherited yet,

@@ -73,6 +73,9 @@ use crate::mesh::{parse_stl, Motion, WallMesh, WeldedMesh};
 use crate::packing::parse_lammps_data;
 use crate::particles::Particles;
 use crate::simulation::{Config, Simulation};
+use crate::timestep::{
+    impact_speed_bound_m_per_s, TimestepLimits, MAX_HERTZ_FRACTION, MAX_RAYLEIGH_FRACTION,
+};
 use crate::verify::Verify;
 
 /// A whole case file.
@@ -148,9 +151,12 @@ fn default_air_viscosity() -> Real {
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Run {
-    /// Time step, s; when absent, `rayleigh_fraction` × the smallest Rayleigh time.
+    /// Time step, s; at most the largest safe step of [`crate::timestep`]; when
+    /// absent, `rayleigh_fraction` × the smallest Rayleigh time, and at most 0.1 of the
+    /// shortest Hertz contact time.
     pub timestep: Option<Real>,
-    /// Fraction of the smallest Rayleigh time used as the time step (default 0.15).
+    /// Fraction of the smallest Rayleigh time used as the time step when none is
+    /// given (default 0.15, at most 0.3).
     #[serde(default = "default_rayleigh_fraction")]
     pub rayleigh_fraction: Real,
     /// Simulated time to run, s.
@@ -495,6 +501,7 @@ impl Case {
     pub fn parse(text: &str) -> Result<Self, CaseError> {
         let case: Case = toml::from_str(text).map_err(|e| CaseError::Syntax(e.to_string()))?;
         case.validate()?;
+        case.check_timestep()?;
         Ok(case)
     }
 
@@ -504,6 +511,15 @@ impl Case {
             finite_positive("run.timestep", dt)?;
         }
         finite_positive("run.rayleigh_fraction", run.rayleigh_fraction)?;
+        if run.rayleigh_fraction > MAX_RAYLEIGH_FRACTION {
+            return Err(invalid(
+                "run.rayleigh_fraction",
+                format!(
+                    "{} is above {MAX_RAYLEIGH_FRACTION}, the largest safe fraction of the Rayleigh time; give at most {MAX_RAYLEIGH_FRACTION}",
+                    run.rayleigh_fraction
+                ),
+            ));
+        }
         finite_positive("run.end_time", run.end_time)?;
         finite_positive("run.max_speed", run.max_speed)?;
         finite_positive("run.max_overlap_ratio", run.max_overlap_ratio)?;
@@ -772,26 +788,48 @@ impl Case {
             .collect()
     }
 
-    /// The time step, s: given, or a fraction of the smallest Rayleigh time (of the
-    /// types and of any explicit particle with a radius of its own).
+    /// The Rayleigh and Hertz times this case's step is measured against
+    /// ([`crate::timestep`]): of the types, each at the smallest radius it is given
+    /// (its own, or an explicit particle's), against each other and the wall.
+    pub fn timestep_limits(&self) -> TimestepLimits {
+        let mut types = self.particle_types();
+        for (k, p) in self.particles.iter().enumerate() {
+            if let (Some(radius_m), Ok(kind)) = (p.radius, self.type_index(k, &p.kind)) {
+                types[kind].radius_m = types[kind].radius_m.min(radius_m);
+            }
+        }
+        TimestepLimits::of(
+            &types,
+            &material(&self.wall_material),
+            impact_speed_bound_m_per_s(self),
+        )
+    }
+
+    /// The time step, s: given, or chosen from the Rayleigh and Hertz times
+    /// ([`TimestepLimits::chosen_s`]).
     pub fn timestep_s(&self) -> Real {
-        self.run.timestep.unwrap_or_else(|| {
-            let types = self.particle_types();
-            let explicit = self.particles.iter().enumerate().filter_map(|(k, p)| {
-                let kind = self.type_index(k, &p.kind).ok()?;
-                Some(ParticleType {
-                    radius_m: p.radius?,
-                    ..types[kind]
-                })
-            });
-            self.run.rayleigh_fraction
-                * types
-                    .iter()
-                    .copied()
-                    .chain(explicit)
-                    .map(|t| t.rayleigh_time_s())
-                    .fold(Real::INFINITY, Real::min)
-        })
+        self.run
+            .timestep
+            .unwrap_or_else(|| self.timestep_limits().chosen_s(self.run.rayleigh_fraction))
+    }
+
+    /// Refuses a given step above the largest safe one, naming that one.
+    fn check_timestep(&self) -> Result<(), CaseError> {
+        let limits = self.timestep_limits();
+        let largest = limits.largest_s();
+        match self.run.timestep {
+            Some(dt) if dt > largest => Err(invalid(
+                "run.timestep",
+                format!(
+                    "{dt:.4e} s is above the largest safe time step for these particles, {largest:.4e} s ({MAX_RAYLEIGH_FRACTION} of the smallest Rayleigh time, {:.4e} s, and {MAX_HERTZ_FRACTION} of the shortest Hertz contact time, {:.4e} s at an impact speed of {:.3} m/s); give at most {largest:.4e} s, or leave `timestep` out and the kernel chooses {:.4e} s",
+                    limits.rayleigh_time_s,
+                    limits.hertz_time_s,
+                    limits.impact_speed_m_per_s,
+                    limits.chosen_s(self.run.rayleigh_fraction),
+                ),
+            )),
+            _ => Ok(()),
+        }
     }
 
     /// Builds wall `index` from its STL file's bytes.

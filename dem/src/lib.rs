@@ -32,6 +32,7 @@ pub mod output;
 pub mod packing;
 pub mod particles;
 pub mod simulation;
+pub mod timestep;
 pub mod verify;
 pub mod walls;
 

@@ -53,7 +53,7 @@ fn native_case() -> String {
     format!(
         r#"
 [run]
-timestep = 1e-4
+timestep = 1e-5
 end_time = 1.5
 seed = 1
 skin = 10.0

@@ -159,8 +159,8 @@ fn a_nine_point_study_on_slurm_equals_the_same_study_run_locally() {
     }
 }
 
-/// Three points keyed on the fill time: 0.05 s runs with a time step that makes the
-/// kernel go unstable (exit 1); 50 s and 100 s of filling run far past the 1-minute
+/// Three points keyed on the fill time: 0.05 s runs with a speed bound of 1 mm/s that
+/// the falling particles pass, so the kernel stops as unstable (exit 1); 50 s and 100 s of filling run far past the 1-minute
 /// limit. The test scancels the third itself.
 const FAULTS: &str = "\
 name: slurm-faults
@@ -181,7 +181,7 @@ fn faulty_native_template() -> String {
     assert!(template.contains(line));
     template.replace(
         line,
-        "timestep = {% if fill_time < 1 %}0.0008{% else %}{{ timestep }}{% endif %}",
+        "timestep = {{ timestep }}\nmax_speed = {% if fill_time < 1 %}0.001{% else %}50{% endif %}",
     )
 }
 

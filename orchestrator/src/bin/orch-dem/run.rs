@@ -290,8 +290,9 @@ mod tests {
 
     use super::*;
 
-    /// One glass sphere launched down at 1 m/s through a sensor plane 4 mm below it
-    /// (it crosses near step 40), for 2000 steps of 0.1 ms, a log line every 100 steps
+    /// One glass sphere (4 mm radius, so that 0.1 ms is a safe step) launched down at
+    /// 1 m/s through a sensor plane 4 mm below it (it crosses near step 40), for 2000
+    /// steps of 0.1 ms, a log line every 100 steps
     /// and a dump every 50; its stop file is `STOP`.
     const CASE: &str = r#"
 [run]
@@ -308,7 +309,7 @@ max = [0.05, 0.05, 0.05]
 
 [[types]]
 name = "glass"
-radius = 0.001
+radius = 0.004
 density = 2500
 youngs_modulus = 5e6
 poisson_ratio = 0.3

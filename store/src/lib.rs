@@ -454,6 +454,16 @@ impl Store {
             .map_err(query_error("list jobs"))
     }
 
+    /// The jobs chained after job `job_id` (its stages, or a coupling chain's next
+    /// job), in id order.
+    pub async fn followers_of(&self, job_id: i64) -> Result<Vec<JobRow>, StoreError> {
+        sqlx::query_as("SELECT * FROM jobs WHERE after_job_id = ? ORDER BY id")
+            .bind(job_id)
+            .fetch_all(&self.pool)
+            .await
+            .map_err(query_error("list a job's followers"))
+    }
+
     /// Every job of a study as [`JobLinkRow`]s (no run directories, handles or error
     /// text), in id order, read [`ROWS_PER_PAGE`] at a time: what an analysis of the
     /// study's runs needs, at a fraction of [`Store::jobs`]'s memory.

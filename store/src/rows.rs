@@ -391,7 +391,6 @@ pub struct JobRow {
     pub scheduler_state: Option<String>,
     /// A design job, or a stage job and its kind (`jobs.stage`: [`DESIGN_STAGE`] or the
     /// kind), decoded when the row is read.
-    /// (the `kind` of an adapters `Stage`) chained after the job `after_job_id`.
     pub kind: JobKind,
     /// The job this one waits for and reads its inputs from (stages).
     pub after_job_id: Option<i64>,

@@ -13,7 +13,7 @@
 //!
 //! Failed jobs keep everything: the driver prunes only after a job's results are
 //! stored as succeeded, and never below what a stage that follows the job reads there
-//! ([`Keep::at_least`]).
+//! ([`Keep::at_least`]) until every such follower has succeeded; then to `keep:`.
 
 use std::io::{self, Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};

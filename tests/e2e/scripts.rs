@@ -49,22 +49,22 @@ fn a_script_stage_reads_its_design_job_s_files_and_its_responses_are_stored() {
     let jobs = status["jobs"].as_array().unwrap();
     let job = |name: &str| jobs.iter().find(|j| j["name"] == name).unwrap();
     for point in ["p000r0", "p001r0"] {
-        let run_dir = project.project_dir().join(format!("runs/scripted/{point}"));
-        // `keep: none` did not prune what the script read: the design job kept all.
-        let crossings = std::fs::read_to_string(run_dir.join("post/crossings.csv")).unwrap();
-        assert!(!run_dir.join("orch-kept.txt").exists());
         let (design, script) = (job(point), job(&format!("{point}-script")));
-        assert_eq!(
-            script["responses"]["crossing_rows"].as_f64().unwrap(),
-            (crossings.lines().count() - 1) as f64,
-            "{script:#}"
-        );
+        // The script read the design job's crossings (one row per particle that
+        // crossed, at most the 400 inserted) and the rate stored for it.
+        let rows = script["responses"]["crossing_rows"].as_f64().unwrap();
+        assert!(rows > 0.0 && rows <= 400.0, "{script:#}");
         let rate = design["responses"]["discharge_rate"].as_f64().unwrap();
         let echoed = script["responses"]["echoed_rate"].as_f64().unwrap();
         assert!(
             rate > 0.0 && (echoed - rate).abs() <= 1e-9 * rate,
             "{rate} vs {echoed}"
         );
+        // The design job kept every file until its script had run; then nothing read
+        // them any more, and `keep: none` pruned them to its record.
+        let run_dir = project.project_dir().join(format!("runs/scripted/{point}"));
+        assert!(run_dir.join("orch-kept.txt").exists());
+        assert!(!run_dir.join("post/crossings.csv").exists());
     }
     // `orch logs` shows the script's own log (its stdout; `keep: none` pruned the
     // script's own directory to its record once its responses were stored).

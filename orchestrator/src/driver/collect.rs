@@ -194,6 +194,7 @@ impl<E: Executor> Driver<'_, E> {
         results: &JobResults,
     ) -> Result<(), DriverError> {
         self.prune(job);
+        self.prune_upstream(job).await?;
         let rerun = job
             .stage_kind()
             .and_then(|kind| self.study.stage(kind))
@@ -232,6 +233,34 @@ impl<E: Executor> Driver<'_, E> {
                 ),
             );
         }
+    }
+
+    /// Once every job that follows `job`'s upstream job has succeeded, nothing reads
+    /// the upstream's directory any more: it is pruned to what `keep:` says, which
+    /// [`Self::prune`] had raised for those followers. While a follower has not
+    /// succeeded (it may be retried, or a person may look at what it read), the
+    /// upstream keeps its files.
+    async fn prune_upstream(&self, job: &JobRow) -> Result<(), DriverError> {
+        let Some(upstream_id) = job.after_job_id else {
+            return Ok(());
+        };
+        let followers = self.store.followers_of(upstream_id).await?;
+        if followers.iter().all(|f| f.state == JobState::Succeeded) {
+            let upstream = self.store.job(upstream_id).await?;
+            let run_dir = Path::new(&upstream.run_dir);
+            let keep = self.study.keep;
+            if let Err(e) = crate::keep::prune(run_dir, keep, &self.log_file(&upstream)) {
+                self.report(
+                    &upstream,
+                    &format!(
+                        "keep: {} could not prune {}: {e}",
+                        keep.name(),
+                        run_dir.display()
+                    ),
+                );
+            }
+        }
+        Ok(())
     }
 
     /// Why a run that succeeded lacks responses the study asks for (its objective's and

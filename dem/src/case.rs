@@ -821,7 +821,7 @@ impl Case {
             Some(dt) if dt > largest => Err(invalid(
                 "run.timestep",
                 format!(
-                    "{dt:.4e} s is above the largest safe time step for these particles, {largest:.4e} s ({MAX_RAYLEIGH_FRACTION} of the smallest Rayleigh time, {:.4e} s, and {MAX_HERTZ_FRACTION} of the shortest Hertz contact time, {:.4e} s at an impact speed of {:.3} m/s); give at most {largest:.4e} s, or leave `timestep` out and the kernel chooses {:.4e} s",
+                    "{dt:.4e} s is above the largest safe time step for these particles, {largest:.4e} s ({MAX_RAYLEIGH_FRACTION} of the smallest Rayleigh time, {:.4e} s, and {MAX_HERTZ_FRACTION} of the shortest Hertz contact time, {:.4e} s at an impact speed of {:.3} m/s); give at most {largest:.4e} s (a case file without `timestep` gets {:.4e} s)",
                     limits.rayleigh_time_s,
                     limits.hertz_time_s,
                     limits.impact_speed_m_per_s,

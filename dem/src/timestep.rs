@@ -9,7 +9,8 @@
 //!   contact networks (a settled bed, a hopper's fill);
 //! - **Hertz's contact time** of the hardest impact the case can see, `T_H =
 //!   2.87 (m*² / (R* E*² v))^(1/5)` (Johnson 1985, §11.4) with the pair's effective
-//!   mass, radius and Young's modulus and the impact speed `v` ([`hertz_time_s`]); it
+//!   mass, radius and Young's modulus and the impact speed `v`
+//!   ([`hertz_contact_time_s`]); it
 //!   bounds the step in fast collisions, and is smallest for the smallest spheres.
 //!
 //! The largest step a case may give is the smaller of [`MAX_RAYLEIGH_FRACTION`] `T_R`
@@ -19,9 +20,10 @@
 //! step gets `rayleigh_fraction` `T_R` (0.15 by default), and at most
 //! [`CHOSEN_HERTZ_FRACTION`] `T_H`: half the largest, for a margin.
 //!
-//! The impact speed is bounded from the case alone, before anything moves: a particle
-//! falling the domain's height along gravity, plus the fastest wall, feed, initial
-//! particle and uniform air speed ([`impact_speed_bound_m_per_s`]).
+//! The impact speed is bounded from the case alone, before anything moves: twice a
+//! particle's fall over the domain's height along gravity plus the fastest wall, feed,
+//! initial particle and uniform air speed, for two bodies meeting head on
+//! ([`impact_speed_bound_m_per_s`]).
 //!
 //! Johnson, K. L. (1985) *Contact Mechanics*, Cambridge University Press.
 //! Li, Y., Xu, Y., Thornton, C. (2005) A comparison of discrete element simulations and
@@ -29,6 +31,7 @@
 //! 160, 219–228.
 
 use crate::case::{Case, MotionEntry};
+use crate::force::hertz_contact_time_s;
 use crate::material::{Material, PairConstants, ParticleType};
 use crate::math::Real;
 
@@ -41,10 +44,9 @@ pub const MAX_HERTZ_FRACTION: Real = 0.2;
 /// The step the kernel chooses at most, as a fraction of the shortest Hertz time.
 pub const CHOSEN_HERTZ_FRACTION: Real = 0.1;
 
-/// Hertz's duration of a head-on elastic impact, s: `2.87 (m*² / (R* E*² v))^(1/5)`
-/// for effective mass `m*` (kg), radius `R*` (m) and Young's modulus `E*` (Pa) at
-/// approach speed `v` (m/s). Infinite when nothing approaches.
-pub fn hertz_time_s(
+/// Hertz's contact time at `speed_m_per_s` ([`hertz_contact_time_s`]), infinite when
+/// nothing approaches.
+fn hertz_time_s(
     effective_mass_kg: Real,
     effective_radius_m: Real,
     effective_youngs_pa: Real,
@@ -53,10 +55,12 @@ pub fn hertz_time_s(
     if speed_m_per_s <= 0.0 {
         return Real::INFINITY;
     }
-    2.868
-        * (effective_mass_kg.powi(2)
-            / (effective_radius_m * effective_youngs_pa.powi(2) * speed_m_per_s))
-            .powf(0.2)
+    hertz_contact_time_s(
+        effective_mass_kg,
+        effective_radius_m,
+        effective_youngs_pa,
+        speed_m_per_s,
+    )
 }
 
 /// The two times a case's step is measured against, and the speed the Hertz time
@@ -120,9 +124,10 @@ impl TimestepLimits {
     }
 }
 
-/// A bound of the speeds at which bodies of `case` meet, m/s: free fall over the
-/// domain's extent along gravity, plus the fastest of the walls' motions, the feeds'
-/// and initial particles' velocities and the uniform air.
+/// A bound of the speeds at which bodies of `case` meet, m/s: twice the speed a body
+/// can reach (free fall over the domain's extent along gravity, plus the fastest of
+/// the walls' motions, the feeds' and initial particles' velocities and the uniform
+/// air), since two such bodies may approach each other head on.
 pub fn impact_speed_bound_m_per_s(case: &Case) -> Real {
     let gravity = case
         .run
@@ -152,11 +157,12 @@ pub fn impact_speed_bound_m_per_s(case: &Case) -> Real {
     let feeds = case.inflow.iter().map(|f| norm(f.velocity));
     let particles = case.particles.iter().map(|p| norm(p.velocity));
     let air = case.air.iter().map(|a| norm(a.velocity));
-    fall + walls
+    let launched = walls
         .chain(feeds)
         .chain(particles)
         .chain(air)
-        .fold(0.0, Real::max)
+        .fold(0.0, Real::max);
+    2.0 * (fall + launched)
 }
 
 fn norm(v: [Real; 3]) -> Real {
@@ -189,7 +195,7 @@ mod tests {
         let sphere = glass(1e-3, 5e6);
         let m = sphere.mass_kg();
         let e_star = 5e6 / (2.0 * (1.0 - 0.09));
-        let expected = 2.868 * ((m / 2.0).powi(2) / (0.5e-3 * e_star * e_star * 1.0)).powf(0.2);
+        let expected = 2.87 * ((m / 2.0).powi(2) / (0.5e-3 * e_star * e_star * 1.0)).powf(0.2);
         let limits = TimestepLimits::of(&[sphere], &sphere.material, 1.0);
         // The wall pair (m* = m, R* = r, the same E*) lasts longer: 2^(1/5).
         assert_relative_eq!(limits.hertz_time_s, expected, max_relative = 1e-12);

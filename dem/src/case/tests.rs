@@ -84,6 +84,38 @@ fn a_smaller_explicit_radius_shortens_the_default_time_step() {
     assert_eq!(case.timestep_s(), 0.15 * small.rayleigh_time_s());
 }
 
+/// A given step above 0.3 of the finest Rayleigh time is refused with the largest
+/// safe one; at or below it, it is used as given.
+#[test]
+fn a_time_step_above_the_safe_one_is_refused_naming_it() {
+    let case = Case::parse(&format!("{BASE}{TWO}").replace("timestep = 1e-6\n", "")).unwrap();
+    let limits = case.timestep_limits();
+    let largest = limits.largest_s();
+    // The 0.5 mm glass sphere's Rayleigh time binds here, the Hertz time does not.
+    let glass = ParticleType {
+        radius_m: 0.0005,
+        ..case.particle_types()[0]
+    };
+    assert_eq!(largest, 0.3 * glass.rayleigh_time_s());
+    assert!(0.2 * limits.hertz_time_s > largest);
+    let with =
+        |dt: f64| format!("{BASE}{TWO}").replace("timestep = 1e-6", &format!("timestep = {dt:e}"));
+    assert_eq!(Case::parse(&with(largest)).unwrap().timestep_s(), largest);
+    let error = Case::parse(&with(1.01 * largest)).unwrap_err().to_string();
+    assert!(
+        error.starts_with("`run.timestep`: ")
+            && error.contains(&format!("give at most {largest:.4e} s")),
+        "{error}"
+    );
+    // A fraction of the Rayleigh time above the safe one is refused too.
+    let text = format!("{BASE}{TWO}").replace("seed = 1", "seed = 1\nrayleigh_fraction = 0.4");
+    let error = Case::parse(&text).unwrap_err().to_string();
+    assert!(
+        error.contains("`run.rayleigh_fraction`") && error.contains("give at most 0.3"),
+        "{error}"
+    );
+}
+
 #[test]
 fn bad_explicit_particles_name_their_field() {
     let cases = [

@@ -16,9 +16,14 @@
 //! ```
 //!
 //! Impact quantities (`restitution`, `contact_duration`, `tangential_speed_loss`,
-//! `rebound_spin`) follow particle 1's first contact, with a fixed wall or another
-//! particle, from the step it begins to the step it ends; its normal is the wall's
-//! (towards the particle) or the line of centres at the first step of contact.
+//! `rebound_spin`, `max_overlap`, `max_normal_force`) follow particle 1's first
+//! contact, with a fixed wall or another particle, from the step it begins to the step
+//! it ends; its normal is the wall's (towards the particle) or the line of centres at
+//! the first step of contact. The overlap with a particle is `r1 + r2 − d`; with a wall,
+//! particle 1's travel along the normal since the first step of contact (the overlap
+//! at that step, under one step's travel, is not counted). The normal force is particle
+//! 1's mass times its change of normal velocity over a step, over the step: measured
+//! from the motion, not from the contact law.
 //! Window quantities (`acceleration`, `rolling_ratio`) compare particle 1's state at
 //! the first steps at or after the two times of `window`.
 
@@ -75,6 +80,10 @@ pub enum Quantity {
     /// `r Δω·spin_axis / Δv·direction` over `window`: 1 for rolling without slip,
     /// below 1 when the contact slides; dimensionless.
     RollingRatio,
+    /// Largest overlap during the first impact, m.
+    MaxOverlap,
+    /// Largest normal force on particle 1 during the first impact, N.
+    MaxNormalForce,
 }
 
 impl Quantity {
@@ -87,6 +96,8 @@ impl Quantity {
             Quantity::ReboundSpin => "rebound_spin",
             Quantity::Acceleration => "acceleration",
             Quantity::RollingRatio => "rolling_ratio",
+            Quantity::MaxOverlap => "max_overlap",
+            Quantity::MaxNormalForce => "max_normal_force",
         }
     }
 
@@ -98,6 +109,8 @@ impl Quantity {
             Quantity::TangentialSpeedLoss => "m/s",
             Quantity::ReboundSpin => "rad/s",
             Quantity::Acceleration => "m/s^2",
+            Quantity::MaxOverlap => "m",
+            Quantity::MaxNormalForce => "N",
         }
     }
 
@@ -262,6 +275,9 @@ enum Impact {
         normal: Vec3,
         partner: Option<u32>,
         approach_m_per_s: Vec3,
+        /// Particle 1's position at the first step of contact, m.
+        start_position_m: Vec3,
+        peaks: Peaks,
     },
     /// Over.
     Done {
@@ -270,7 +286,15 @@ enum Impact {
         approach_m_per_s: Vec3,
         rebound_m_per_s: Vec3,
         spin_after: Vec3,
+        peaks: Peaks,
     },
+}
+
+/// The largest overlap and normal force of an impact so far.
+#[derive(Debug, Clone, Copy, Default)]
+struct Peaks {
+    overlap_m: Real,
+    normal_force_n: Real,
 }
 
 /// The id of the particle a verification case measures: the first `[[particles]]`
@@ -299,6 +323,22 @@ fn touching(simulation: &Simulation) -> Option<(Vec3, Option<u32>)> {
         (distance < p.radius_m[i] + p.radius_m[j] && distance > 0.0)
             .then(|| (offset / distance, Some(p.id[j])))
     })
+}
+
+/// Particle 1's overlap now with `partner` (`r1 + r2 − d`), or with a wall (its travel
+/// along `normal` since it was at `start_position_m`), m.
+fn overlap_m(
+    simulation: &Simulation,
+    partner: Option<u32>,
+    normal: Vec3,
+    start_position_m: Vec3,
+) -> Real {
+    let p = &simulation.particles;
+    let i = measured(simulation);
+    match partner.and_then(|id| p.index_of(id)) {
+        Some(j) => p.radius_m[i] + p.radius_m[j] - (p.position_m[i] - p.position_m[j]).norm(),
+        None => (start_position_m - p.position_m[i]).dot(&normal),
+    }
 }
 
 /// Particle 1's velocity relative to `partner` (a fixed wall when `None`), m/s, from
@@ -348,6 +388,12 @@ pub fn run(
     // The first states at or after each window bound, by check.
     let mut windows: Vec<[Option<State>; 2]> = vec![[None, None]; verify.check.len()];
     let mut impact = Impact::Approaching;
+    // Particle 1's state at the previous step (its change gives the contact force).
+    let mut before = State {
+        time_s: simulation.time_s(),
+        velocity_m_per_s: simulation.particles.velocity_m_per_s[measured(simulation)],
+        spin: simulation.particles.angular_velocity[measured(simulation)],
+    };
     // Every particle's id and velocity at the previous step: an impact's approach
     // velocity is the one of the step before the contact began.
     let mut previous: (Vec<u32>, Vec<Vec3>) = (Vec::new(), Vec::new());
@@ -381,6 +427,8 @@ pub fn run(
                 } else {
                     relative_velocity(&previous.0, &previous.1, partner)
                 },
+                start_position_m: p.position_m[i],
+                peaks: Peaks::default(),
             },
             (
                 Impact::Touching {
@@ -388,17 +436,46 @@ pub fn run(
                     normal,
                     partner,
                     approach_m_per_s,
+                    start_position_m,
+                    peaks,
                 },
-                None,
-            ) => Impact::Done {
-                duration_s: state.time_s - start_s,
-                normal,
-                approach_m_per_s,
-                rebound_m_per_s: relative_velocity(&p.id, &p.velocity_m_per_s, partner),
-                spin_after: state.spin,
-            },
+                now,
+            ) => {
+                let peaks = Peaks {
+                    overlap_m: peaks.overlap_m.max(overlap_m(
+                        simulation,
+                        partner,
+                        normal,
+                        start_position_m,
+                    )),
+                    normal_force_n: peaks.normal_force_n.max(
+                        p.mass_kg[i]
+                            * (state.velocity_m_per_s - before.velocity_m_per_s).dot(&normal)
+                            / dt,
+                    ),
+                };
+                match now {
+                    Some(_) => Impact::Touching {
+                        start_s,
+                        normal,
+                        partner,
+                        approach_m_per_s,
+                        start_position_m,
+                        peaks,
+                    },
+                    None => Impact::Done {
+                        duration_s: state.time_s - start_s,
+                        normal,
+                        approach_m_per_s,
+                        rebound_m_per_s: relative_velocity(&p.id, &p.velocity_m_per_s, partner),
+                        spin_after: state.spin,
+                        peaks,
+                    },
+                }
+            }
             (impact, _) => impact,
         };
+        before = state;
         if wants_impact && matches!(impact, Impact::Approaching) {
             previous.0.clone_from(&p.id);
             previous.1.clone_from(&p.velocity_m_per_s);
@@ -435,11 +512,14 @@ fn measure(
                 approach_m_per_s,
                 rebound_m_per_s,
                 spin_after,
+                peaks,
             } => {
                 let tangential = |v: Vec3| (v - v.dot(&normal) * normal).norm();
                 Ok(match check.quantity {
                     Quantity::Restitution => rebound_m_per_s.dot(&normal) / -approach_m_per_s.dot(&normal),
                     Quantity::ContactDuration => duration_s,
+                    Quantity::MaxOverlap => peaks.overlap_m,
+                    Quantity::MaxNormalForce => peaks.normal_force_n,
                     Quantity::TangentialSpeedLoss => {
                         tangential(approach_m_per_s) - tangential(rebound_m_per_s)
                     }

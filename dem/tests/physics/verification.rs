@@ -113,18 +113,26 @@ fn each_reference_follows_from_the_case_inputs() {
         };
         let (vn, vt) = (-v[0].z, v[0].x);
         let e = kind.material.restitution.min(wall.restitution);
+        // Hertz's effective mass and radius: half of each for two equal spheres; the
+        // sphere's own against a wall.
+        let (m_star, r_star) = if two {
+            (kind.mass_kg() / 2.0, kind.radius_m / 2.0)
+        } else {
+            (kind.mass_kg(), kind.radius_m)
+        };
+        let e_star = pair.effective_youngs_pa;
+        // The largest overlap of an elastic impact: (15 m* v² / (16 E* √R*))^(2/5).
+        let hertz_overlap_m =
+            || (15.0 * m_star * speed * speed / (16.0 * e_star * r_star.sqrt())).powf(0.4);
         let mu = pair.friction;
         let tan_theta = g.x / -g.z;
         for check in &table.check {
             let expected = match check.quantity {
                 Quantity::Restitution => e,
-                Quantity::ContactDuration => {
-                    let (m, r) = if two {
-                        (kind.mass_kg() / 2.0, kind.radius_m / 2.0)
-                    } else {
-                        (kind.mass_kg(), kind.radius_m)
-                    };
-                    hertz_contact_time_s(m, r, pair.effective_youngs_pa, speed)
+                Quantity::ContactDuration => hertz_contact_time_s(m_star, r_star, e_star, speed),
+                Quantity::MaxOverlap => hertz_overlap_m(),
+                Quantity::MaxNormalForce => {
+                    4.0 / 3.0 * e_star * r_star.sqrt() * hertz_overlap_m().powf(1.5)
                 }
                 Quantity::TangentialSpeedLoss => {
                     assert!(

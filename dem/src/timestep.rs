@@ -33,7 +33,7 @@
 use crate::case::{Case, MotionEntry};
 use crate::force::hertz_contact_time_s;
 use crate::material::{Material, PairConstants, ParticleType};
-use crate::math::Real;
+use crate::math::{Real, Vec3};
 
 /// The largest step a case may give, as a fraction of its smallest Rayleigh time.
 pub const MAX_RAYLEIGH_FRACTION: Real = 0.3;
@@ -133,7 +133,7 @@ pub fn impact_speed_bound_m_per_s(case: &Case) -> Real {
         .run
         .gravity
         .unwrap_or([0.0, 0.0, -crate::math::STANDARD_GRAVITY_M_S2]);
-    let g = norm(gravity);
+    let g = Vec3::from(gravity).norm();
     let height_m = if g > 0.0 {
         (0..3)
             .map(|i| (gravity[i] / g).abs() * (case.domain.max[i] - case.domain.min[i]))
@@ -151,22 +151,18 @@ pub fn impact_speed_bound_m_per_s(case: &Case) -> Real {
                 amplitude,
                 frequency,
                 ..
-            } => norm(*amplitude) * 2.0 * std::f64::consts::PI * frequency,
-            MotionEntry::Translation { velocity, .. } => norm(*velocity),
+            } => Vec3::from(*amplitude).norm() * 2.0 * std::f64::consts::PI * frequency,
+            MotionEntry::Translation { velocity, .. } => Vec3::from(*velocity).norm(),
         });
-    let feeds = case.inflow.iter().map(|f| norm(f.velocity));
-    let particles = case.particles.iter().map(|p| norm(p.velocity));
-    let air = case.air.iter().map(|a| norm(a.velocity));
+    let feeds = case.inflow.iter().map(|f| Vec3::from(f.velocity).norm());
+    let particles = case.particles.iter().map(|p| Vec3::from(p.velocity).norm());
+    let air = case.air.iter().map(|a| Vec3::from(a.velocity).norm());
     let launched = walls
         .chain(feeds)
         .chain(particles)
         .chain(air)
         .fold(0.0, Real::max);
     2.0 * (fall + launched)
-}
-
-fn norm(v: [Real; 3]) -> Real {
-    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
 }
 
 #[cfg(test)]

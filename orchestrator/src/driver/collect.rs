@@ -221,7 +221,12 @@ impl<E: Executor> Driver<'_, E> {
             .map(|stage| stage.stage.upstream_files())
             .max()
             .unwrap_or(UpstreamFiles::None);
-        let keep = self.study.keep.at_least(needed);
+        self.prune_to(job, self.study.keep.at_least(needed));
+    }
+
+    /// Prunes `job`'s run directory to `keep`; a directory that cannot be pruned is
+    /// reported, and the study goes on.
+    fn prune_to(&self, job: &JobRow, keep: crate::keep::Keep) {
         let run_dir = Path::new(&job.run_dir);
         if let Err(e) = crate::keep::prune(run_dir, keep, &self.log_file(job)) {
             self.report(
@@ -247,18 +252,7 @@ impl<E: Executor> Driver<'_, E> {
         let followers = self.store.followers_of(upstream_id).await?;
         if followers.iter().all(|f| f.state == JobState::Succeeded) {
             let upstream = self.store.job(upstream_id).await?;
-            let run_dir = Path::new(&upstream.run_dir);
-            let keep = self.study.keep;
-            if let Err(e) = crate::keep::prune(run_dir, keep, &self.log_file(&upstream)) {
-                self.report(
-                    &upstream,
-                    &format!(
-                        "keep: {} could not prune {}: {e}",
-                        keep.name(),
-                        run_dir.display()
-                    ),
-                );
-            }
+            self.prune_to(&upstream, self.study.keep);
         }
         Ok(())
     }

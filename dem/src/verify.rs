@@ -16,14 +16,18 @@
 //! ```
 //!
 //! Impact quantities (`restitution`, `contact_duration`, `tangential_speed_loss`,
-//! `rebound_spin`, `max_overlap`, `max_normal_force`) follow particle 1's first
+//! `rebound_spin`, `rebound_velocity`, `rebound_angular_velocity`, `max_overlap`,
+//! `max_normal_force`) follow particle 1's first
 //! contact, with a fixed wall or another particle, from the step it begins to the step
 //! it ends; its normal is the wall's (towards the particle) or the line of centres at
 //! the first step of contact. The overlap with a particle is `r1 + r2 − d`; with a wall,
 //! particle 1's travel along the normal since the first step of contact (the overlap
 //! at that step, under one step's travel, is not counted). The normal force is particle
 //! 1's mass times its change of normal velocity over a step, over the step: measured
-//! from the motion, not from the contact law.
+//! from the motion, not from the contact law. `rebound_velocity` and
+//! `rebound_angular_velocity` are signed: particle 1's own velocity along `direction`
+//! and spin about `spin_axis` at the first step out of contact, so that a reversal
+//! (the contact point of a sticking sphere springs back) shows as a change of sign.
 //! Window quantities (`acceleration`, `rolling_ratio`) compare particle 1's state at
 //! the first steps at or after the two times of `window`.
 
@@ -56,9 +60,11 @@ pub struct Check {
     pub tolerance: Real,
     /// Start and end time of the measurement, s (window quantities only).
     pub window: Option<[Real; 2]>,
-    /// Direction along which velocity is measured (window quantities only; normalised).
+    /// Direction along which velocity is measured (window quantities and
+    /// `rebound_velocity`; normalised).
     pub direction: Option<[Real; 3]>,
-    /// Axis about which spin is measured (`rolling_ratio` only; normalised).
+    /// Axis about which spin is measured (`rolling_ratio` and
+    /// `rebound_angular_velocity`; normalised).
     pub spin_axis: Option<[Real; 3]>,
 }
 
@@ -84,6 +90,11 @@ pub enum Quantity {
     MaxOverlap,
     /// Largest normal force on particle 1 during the first impact, N.
     MaxNormalForce,
+    /// Particle 1's velocity along `direction` after the first impact (signed), m/s.
+    ReboundVelocity,
+    /// Particle 1's angular velocity about `spin_axis` after the first impact
+    /// (signed), rad/s.
+    ReboundAngularVelocity,
 }
 
 impl Quantity {
@@ -98,6 +109,8 @@ impl Quantity {
             Quantity::RollingRatio => "rolling_ratio",
             Quantity::MaxOverlap => "max_overlap",
             Quantity::MaxNormalForce => "max_normal_force",
+            Quantity::ReboundVelocity => "rebound_velocity",
+            Quantity::ReboundAngularVelocity => "rebound_angular_velocity",
         }
     }
 
@@ -106,8 +119,8 @@ impl Quantity {
         match self {
             Quantity::Restitution | Quantity::RollingRatio => "-",
             Quantity::ContactDuration => "s",
-            Quantity::TangentialSpeedLoss => "m/s",
-            Quantity::ReboundSpin => "rad/s",
+            Quantity::TangentialSpeedLoss | Quantity::ReboundVelocity => "m/s",
+            Quantity::ReboundSpin | Quantity::ReboundAngularVelocity => "rad/s",
             Quantity::Acceleration => "m/s^2",
             Quantity::MaxOverlap => "m",
             Quantity::MaxNormalForce => "N",
@@ -116,6 +129,19 @@ impl Quantity {
 
     fn uses_window(self) -> bool {
         matches!(self, Quantity::Acceleration | Quantity::RollingRatio)
+    }
+
+    /// Whether the quantity is measured along a `direction`.
+    fn uses_direction(self) -> bool {
+        self.uses_window() || self == Quantity::ReboundVelocity
+    }
+
+    /// Whether the quantity is measured about a `spin_axis`.
+    fn uses_spin_axis(self) -> bool {
+        matches!(
+            self,
+            Quantity::RollingRatio | Quantity::ReboundAngularVelocity
+        )
     }
 }
 
@@ -167,48 +193,50 @@ impl Verify {
                 ));
             }
             let name = c.quantity.name();
-            if !c.quantity.uses_window() {
-                for (key, given) in [
-                    ("window", c.window.is_some()),
-                    ("direction", c.direction.is_some()),
-                    ("spin_axis", c.spin_axis.is_some()),
-                ] {
-                    if given {
-                        return Err(error(
-                            field(key),
-                            format!("`{name}` is measured over the first impact and takes no {key}; remove it"),
-                        ));
-                    }
-                }
-                continue;
-            }
-            let Some([from, to]) = c.window else {
-                return Err(error(
-                    field("window"),
-                    format!("`{name}` needs window = [start, end] in s"),
-                ));
-            };
-            if !(from.is_finite() && to.is_finite() && 0.0 <= from && from < to && to <= end_time_s)
-            {
-                return Err(error(
-                    field("window"),
-                    format!("expected 0 ≤ start < end ≤ run.end_time ({end_time_s} s), got [{from}, {to}]"),
-                ));
-            }
-            unit_vector(&field("direction"), c.direction, name)
-                .map_err(|m| error(field("direction"), m))?;
-            match (c.quantity, c.spin_axis) {
-                (Quantity::RollingRatio, axis) => {
-                    unit_vector(&field("spin_axis"), axis, name)
-                        .map_err(|m| error(field("spin_axis"), m))?;
-                }
-                (_, Some(_)) => {
+            let q = c.quantity;
+            for (key, given, wanted) in [
+                ("window", c.window.is_some(), q.uses_window()),
+                ("direction", c.direction.is_some(), q.uses_direction()),
+                ("spin_axis", c.spin_axis.is_some(), q.uses_spin_axis()),
+            ] {
+                if given && !wanted {
+                    let what = if q.uses_window() {
+                        "is measured over its window"
+                    } else {
+                        "is measured over the first impact"
+                    };
                     return Err(error(
-                        field("spin_axis"),
-                        format!("`{name}` takes no spin_axis; remove it"),
-                    ))
+                        field(key),
+                        format!("`{name}` {what} and takes no {key}; remove it"),
+                    ));
                 }
-                (_, None) => {}
+            }
+            if q.uses_window() {
+                let Some([from, to]) = c.window else {
+                    return Err(error(
+                        field("window"),
+                        format!("`{name}` needs window = [start, end] in s"),
+                    ));
+                };
+                if !(from.is_finite()
+                    && to.is_finite()
+                    && 0.0 <= from
+                    && from < to
+                    && to <= end_time_s)
+                {
+                    return Err(error(
+                        field("window"),
+                        format!("expected 0 ≤ start < end ≤ run.end_time ({end_time_s} s), got [{from}, {to}]"),
+                    ));
+                }
+            }
+            if q.uses_direction() {
+                unit_vector(&field("direction"), c.direction, name)
+                    .map_err(|m| error(field("direction"), m))?;
+            }
+            if q.uses_spin_axis() {
+                unit_vector(&field("spin_axis"), c.spin_axis, name)
+                    .map_err(|m| error(field("spin_axis"), m))?;
             }
         }
         Ok(())
@@ -285,6 +313,8 @@ enum Impact {
         normal: Vec3,
         approach_m_per_s: Vec3,
         rebound_m_per_s: Vec3,
+        /// Particle 1's own velocity at the first step out of contact, m/s.
+        velocity_after_m_per_s: Vec3,
         spin_after: Vec3,
         peaks: Peaks,
     },
@@ -468,6 +498,7 @@ pub fn run(
                         normal,
                         approach_m_per_s,
                         rebound_m_per_s: relative_velocity(&p.id, &p.velocity_m_per_s, partner),
+                        velocity_after_m_per_s: state.velocity_m_per_s,
                         spin_after: state.spin,
                         peaks,
                     },
@@ -511,6 +542,7 @@ fn measure(
                 normal,
                 approach_m_per_s,
                 rebound_m_per_s,
+                velocity_after_m_per_s,
                 spin_after,
                 peaks,
             } => {
@@ -522,6 +554,10 @@ fn measure(
                     Quantity::MaxNormalForce => peaks.normal_force_n,
                     Quantity::TangentialSpeedLoss => {
                         tangential(approach_m_per_s) - tangential(rebound_m_per_s)
+                    }
+                    Quantity::ReboundVelocity => velocity_after_m_per_s.dot(&unit(check.direction)),
+                    Quantity::ReboundAngularVelocity => {
+                        spin_after.dot(&unit(check.spin_axis))
                     }
                     _ => spin_after.norm(),
                 })
@@ -548,12 +584,14 @@ fn measure(
     }
 }
 
+/// A validated `direction` or `spin_axis`, normalised.
+fn unit(v: Option<[Real; 3]>) -> Vec3 {
+    let v = Vec3::from(v.unwrap_or([1.0, 0.0, 0.0]));
+    v / v.norm()
+}
+
 /// A window quantity from the states at its two ends (the table was validated).
 fn window_value(check: &Check, a: &State, b: &State, simulation: &Simulation) -> Real {
-    let unit = |v: Option<[Real; 3]>| {
-        let v = Vec3::from(v.unwrap_or([1.0, 0.0, 0.0]));
-        v / v.norm()
-    };
     let direction = unit(check.direction);
     let dv = (b.velocity_m_per_s - a.velocity_m_per_s).dot(&direction);
     match check.quantity {

@@ -250,6 +250,24 @@ fn a_verify_table_is_checked_against_the_case() {
         ),
         "{error}"
     );
+    // The signed rebound quantities need their axis, and take no window.
+    let error = check(
+        "\n[[verify.check]]\nquantity = \"rebound_velocity\"\nreference = 0.5\ntolerance = 0.01\n",
+    );
+    assert!(
+        error.starts_with("`verify.check[0].direction`: `rebound_velocity` needs"),
+        "{error}"
+    );
+    let error = check("\n[[verify.check]]\nquantity = \"rebound_angular_velocity\"\nreference = 0.5\ntolerance = 0.01\nspin_axis = [0, 1, 0]\nwindow = [0.0, 0.001]\n");
+    assert!(
+        error.starts_with("`verify.check[0].window`: `rebound_angular_velocity` is measured over the first impact and takes no window"),
+        "{error}"
+    );
+    let error = check("\n[[verify.check]]\nquantity = \"rebound_angular_velocity\"\nreference = 0.5\ntolerance = 0.01\nspin_axis = [0, 0, 0]\n");
+    assert!(
+        error.starts_with("`verify.check[0].spin_axis`: expected a non-zero finite vector"),
+        "{error}"
+    );
     let error =
         check("\n[[verify.check]]\nquantity = \"bounce\"\nreference = 0.5\ntolerance = 0.01\n");
     assert!(error.contains("unknown variant `bounce`"), "{error}");

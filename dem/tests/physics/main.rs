@@ -7,6 +7,7 @@ mod air;
 mod bad_input;
 mod determinism;
 mod energy;
+mod impact_reference;
 mod impacts;
 mod incline;
 mod inflow;

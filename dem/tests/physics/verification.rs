@@ -10,6 +10,8 @@ use orch_dem::material::PairConstants;
 use orch_dem::verify::{self, Quantity};
 use orch_dem::Simulation;
 
+use crate::impact_reference::{self, Rebound, Sphere, Target};
+
 fn folder() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("verification")
 }
@@ -126,6 +128,13 @@ fn each_reference_follows_from_the_case_inputs() {
             || (15.0 * m_star * speed * speed / (16.0 * e_star * r_star.sqrt())).powf(0.4);
         let mu = pair.friction;
         let tan_theta = g.x / -g.z;
+        let signed = table.check.iter().any(|c| {
+            matches!(
+                c.quantity,
+                Quantity::ReboundVelocity | Quantity::ReboundAngularVelocity
+            )
+        });
+        let planar = signed.then(|| planar_rebound(&name, &case, &simulation));
         for check in &table.check {
             let expected = match check.quantity {
                 Quantity::Restitution => e,
@@ -142,6 +151,20 @@ fn each_reference_follows_from_the_case_inputs() {
                     mu * (1.0 + e) * vn
                 }
                 Quantity::ReboundSpin => 2.5 * mu * (1.0 + e) * vn / kind.radius_m,
+                Quantity::ReboundVelocity => {
+                    let d = check.direction.unwrap();
+                    assert_eq!(d[1], 0.0, "{name}: the reference is planar (x–z)");
+                    let v = planar.unwrap().velocity_m_per_s;
+                    (v[0] * d[0] + v[1] * d[2]) / (d[0].hypot(d[2]))
+                }
+                Quantity::ReboundAngularVelocity => {
+                    let axis = check.spin_axis.unwrap();
+                    assert!(
+                        axis[0] == 0.0 && axis[2] == 0.0,
+                        "{name}: the reference spins about y"
+                    );
+                    planar.unwrap().spin_rad_per_s * axis[1].signum()
+                }
                 Quantity::Acceleration if tan_theta <= 3.5 * mu => 5.0 / 7.0 * g.x,
                 Quantity::Acceleration => g.x + mu * g.z,
                 Quantity::RollingRatio if tan_theta <= 3.5 * mu => 1.0,
@@ -155,4 +178,71 @@ fn each_reference_follows_from_the_case_inputs() {
             );
         }
     }
+}
+
+/// Particle 1's rebound from the planar reference (`impact_reference`), at a step ten
+/// times finer than the case's, after checking that halving that step moves it little.
+fn planar_rebound(name: &str, case: &Case, simulation: &Simulation) -> Rebound {
+    let p = &simulation.particles;
+    let sphere = |index: usize| {
+        let kind = &simulation.types()[p.kind[index] as usize];
+        let (x, v, w) = (
+            p.position_m[index],
+            p.velocity_m_per_s[index],
+            p.angular_velocity[index],
+        );
+        assert!(
+            x.y == 0.0 && v.y == 0.0 && w.x == 0.0 && w.z == 0.0,
+            "{name}: the reference moves in x–z and spins about y"
+        );
+        let m = &kind.material;
+        Sphere {
+            radius_m: p.radius_m[index],
+            mass_kg: p.mass_kg[index],
+            position_m: [x.x, x.z],
+            velocity_m_per_s: [v.x, v.z],
+            spin_rad_per_s: w.y,
+            material: impact_reference::Material {
+                youngs_modulus_pa: m.youngs_modulus_pa,
+                poisson_ratio: m.poisson_ratio,
+                restitution: m.restitution,
+                friction: m.friction,
+            },
+        }
+    };
+    let first = p.index_of(1).unwrap();
+    let target = match p.len() {
+        1 => {
+            let w = &simulation.config().wall_material;
+            Target::Floor(impact_reference::Material {
+                youngs_modulus_pa: w.youngs_modulus_pa,
+                poisson_ratio: w.poisson_ratio,
+                restitution: w.restitution,
+                friction: w.friction,
+            })
+        }
+        2 => Target::Sphere(sphere(1 - first)),
+        n => panic!("{name}: the planar reference takes one or two particles, not {n}"),
+    };
+    let step = simulation.config().timestep_s / 10.0;
+    let [best, coarse, fine] =
+        impact_reference::rebound(&sphere(first), &target, step, case.run.end_time);
+    // The two integrations agree to well within the checks' tolerances.
+    let close = |a: f64, b: f64, scale: f64| (a - b).abs() <= 1e-3 * scale;
+    let speed = coarse.velocity_m_per_s[0].hypot(coarse.velocity_m_per_s[1]);
+    for k in 0..2 {
+        assert!(
+            close(coarse.velocity_m_per_s[k], fine.velocity_m_per_s[k], speed),
+            "{name}: the reference has not converged: {coarse:?} against {fine:?}"
+        );
+    }
+    assert!(
+        close(
+            coarse.spin_rad_per_s,
+            fine.spin_rad_per_s,
+            fine.spin_rad_per_s.abs().max(speed / p.radius_m[first])
+        ),
+        "{name}: the reference has not converged: {coarse:?} against {fine:?}"
+    );
+    best
 }

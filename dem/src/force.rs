@@ -35,7 +35,8 @@ pub struct ContactGeometry {
 pub struct ContactForce {
     /// Total force on this body, N.
     pub force: Vec3,
-    /// The tangential part of `force`, N (its torque arm is the body's radius).
+    /// The tangential part of `force`, N (its torque arm is the body's radius against
+    /// another particle, the radius less half the overlap against a wall).
     pub tangential: Vec3,
     /// Rolling-resistance torque on this body, N m (the other gets the opposite).
     pub rolling_torque: Vec3,

@@ -565,9 +565,13 @@ fn add_contact(
 ) {
     let r = particle.radius_m;
     let n = touch.normal;
+    // The lever from the centre to the contact point: to the middle of the overlap,
+    // r − δ/2, as LIGGGHTS's wall/gran takes it (between two particles both codes use
+    // the radii).
+    let arm = r - 0.5 * touch.overlap_m;
     let wall_velocity = walls.velocities_m_per_s[touch.mesh as usize];
     let contact_velocity =
-        particle.velocity_m_per_s - r * particle.angular_velocity.cross(&n) - wall_velocity;
+        particle.velocity_m_per_s - arm * particle.angular_velocity.cross(&n) - wall_velocity;
     if !continued {
         let approach = -contact_velocity.dot(&n);
         if approach > 0.0 {
@@ -589,7 +593,7 @@ fn add_contact(
         walls.dt_s,
     );
     load.force_n += result.force;
-    load.torque_n_m += (-r * n).cross(&result.tangential) + result.rolling_torque;
+    load.torque_n_m += (-arm * n).cross(&result.tangential) + result.rolling_torque;
     load.worst_overlap_ratio = load.worst_overlap_ratio.max(touch.overlap_m / r);
     contacts.push(WallContact {
         mesh: touch.mesh,

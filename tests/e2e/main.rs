@@ -18,6 +18,7 @@ mod faults;
 mod fidelity;
 mod native;
 mod noise;
+mod oblique_impacts;
 mod openfoam;
 mod outputs;
 mod pipes;

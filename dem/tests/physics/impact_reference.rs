@@ -1,7 +1,8 @@
 //! The reference for oblique impacts where the contact sticks or micro-slips: the
 //! contact law of `docs/method.md` (Hertz normal force, Mindlin's no-slip tangential
 //! spring with history and a Coulomb limit, both damped from the restitution
-//! coefficient: LIGGGHTS's `hertz` + `tangential history`) written out again for two
+//! coefficient, the lever to the contact point r − δ/2 at a wall: LIGGGHTS's `hertz` +
+//! `tangential history`) written out again for two
 //! bodies moving in the x–z plane and spinning about y, and integrated with a step far
 //! finer than the kernel's.
 //!
@@ -149,6 +150,7 @@ fn integrate(first: &Sphere, target: &Target, h_s: f64, end_s: f64) -> Option<Re
             touched = true;
         }
         let (mut force_on_one, mut tangential_force) = ([0.0; 2], 0.0);
+        let mut lever_one = first.radius_m;
         if overlap > 0.0 {
             // t = ŷ × n = (n_z, −n_x) in (x, z).
             let tangent = [normal[1], -normal[0]];
@@ -157,8 +159,15 @@ fn integrate(first: &Sphere, target: &Target, h_s: f64, end_s: f64) -> Option<Re
                 (Some(b), Some(s)) => (b.velocity, b.spin, s.radius_m),
                 _ => ([0.0, 0.0], 0.0, 0.0),
             };
+            // The lever to the contact point: the radii between spheres, the radius
+            // less half the overlap against the wall (LIGGGHTS's rules).
+            let arm = match second {
+                Some(_) => first.radius_m,
+                None => first.radius_m - 0.5 * overlap,
+            };
             let relative = [one.velocity[0] - v2[0], one.velocity[1] - v2[1]];
-            let spin_part = first.radius_m * one.spin + r2 * w2;
+            let spin_part = arm * one.spin + r2 * w2;
+            lever_one = arm;
             let vn = relative[0] * normal[0] + relative[1] * normal[1];
             let vt = relative[0] * tangent[0] + relative[1] * tangent[1] - spin_part;
             let root = (r_star * overlap).sqrt();
@@ -178,8 +187,8 @@ fn integrate(first: &Sphere, target: &Target, h_s: f64, end_s: f64) -> Option<Re
         }
         // Semi-implicit Euler: velocities from the forces, then positions from them.
         kick_and_drift(&mut one, force_on_one, first.mass_kg, h_s);
-        // The torque on each is −r F_t about y.
-        one.spin -= first.radius_m * tangential_force / inertia(first) * h_s;
+        // The torque on each is −(lever) F_t about y.
+        one.spin -= lever_one * tangential_force / inertia(first) * h_s;
         if let (Some(b), Some(s)) = (&mut two, &second) {
             kick_and_drift(b, force_on_one.map(|f| -f), s.mass_kg, h_s);
             b.spin -= s.radius_m * tangential_force / inertia(s) * h_s;
@@ -218,8 +227,9 @@ pub fn rebound(first: &Sphere, target: &Target, h_s: f64, end_s: f64) -> [Reboun
 }
 
 /// Where the contact slides throughout and nothing is damped, the reference gives
-/// rigid-body impulse theory's answer: the tangential speed falls by 2 μ vn and the
-/// sphere spins up by 5 μ vn / R.
+/// rigid-body impulse theory's answer: the tangential speed falls by 2 μ vn, and the
+/// sphere spins up by 5 μ vn / R less the share of the lever `R − δ/2` lost to the
+/// overlap (δmax / 2R = 0.33 % here: Hertz's largest overlap is 65 µm).
 #[test]
 fn a_sliding_elastic_impact_gives_rigid_body_theory() {
     let steel = Material {
@@ -248,8 +258,9 @@ fn a_sliding_elastic_impact_gives_rigid_body_theory() {
         "{best:?}"
     );
     assert!(close(best.velocity_m_per_s[1], 5.0), "{best:?}");
+    let rigid = 5.0 * 0.3 * 5.0 / radius_m;
     assert!(
-        close(best.spin_rad_per_s, 5.0 * 0.3 * 5.0 / radius_m),
+        best.spin_rad_per_s < rigid && best.spin_rad_per_s > rigid * (1.0 - 0.0033),
         "{best:?}"
     );
 }

@@ -1,6 +1,7 @@
 //! Physics of the native kernel checked against analytical answers: Hertz impacts,
 //! restitution, Coulomb sliding, rolling and sliding on an incline, energy
-//! conservation; plus determinism, the errors of bad input and the verification set
+//! conservation, spontaneous percolation of fines through a packed bed; plus
+//! determinism, the errors of bad input and the verification set
 //! `dem/verification/`.
 
 mod air;
@@ -12,6 +13,7 @@ mod impacts;
 mod incline;
 mod inflow;
 mod momentum;
+mod percolation;
 mod verification;
 mod walls;
 

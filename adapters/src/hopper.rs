@@ -15,6 +15,7 @@ use orch_granular::responses::{
     cumulative_mass_series, mass_flow_series, radial_densities, RadialDensities,
 };
 use orch_granular::steady::BATCHES;
+use orch_granular::temporal::fine_fraction_by_discharged_mass;
 use orch_granular::{DischargeResponses, HopperGeometry, ResponseOptions};
 use tera::Context;
 
@@ -85,6 +86,16 @@ pub static RESPONSES: &[ResponseSpec] = &[
         "mass-weighted mean downward speed at the sensor plane",
     ),
     response(
+        "fine_fraction_first_quarter",
+        "-",
+        "mass fraction of fines in the first quarter of the discharged mass",
+    ),
+    response(
+        "fine_fraction_last_quarter",
+        "-",
+        "mass fraction of fines in the last quarter of the discharged mass",
+    ),
+    response(
         "fine_fraction_outer_2",
         "-",
         "mass fraction of fines among the particles whose surface reaches beyond 98 % of stream_radius_95",
@@ -117,6 +128,11 @@ pub static SERIES: &[ResponseSpec] = &[
         "discharged_mass",
         "kg",
         "cumulative mass that crossed the sensor plane, over time",
+    ),
+    response(
+        "fine_fraction_over_discharge",
+        "-",
+        "mass fraction of fines in each tenth of the discharged mass, over its mean crossing time",
     ),
     response(
         "kinetic_energy",
@@ -216,6 +232,13 @@ impl Equipment for Hopper {
             Series {
                 name: "discharged_mass".to_string(),
                 points: cumulative_mass_series(crossings),
+            },
+            Series {
+                name: "fine_fraction_over_discharge".to_string(),
+                points: fine_fraction_by_discharged_mass(crossings, options.fine_type, 10)
+                    .iter()
+                    .map(|slice| (slice.time_s, slice.fine_mass_fraction))
+                    .collect(),
             },
         ];
         let RadialDensities { fine, coarse } = radial_densities(crossings, &options);

@@ -34,6 +34,7 @@ pub mod steady;
 pub mod stream;
 #[cfg(test)]
 pub(crate) mod synthetic;
+pub mod temporal;
 
 pub use chute::{ChuteError, ChuteGeometry};
 pub use crossing::{Crossing, CrossingDetector, Sighting};

@@ -17,12 +17,16 @@
 //!   outermost particle.
 //! - **Exit speed**: the mass-weighted mean downward speed at the plane, m/s (what the
 //!   CFD stage needs to know of the stream, with its rate and radius).
+//! - **Fines early and late** `fine_fraction_first_quarter`, `fine_fraction_last_quarter`:
+//!   the fines' mass fraction in the first and the last quarter of the discharged mass
+//!   ([`crate::temporal`]): segregation in time rather than in radius.
 //! - **Radial densities** of fines and coarse (series): histograms of centre distance
 //!   normalised to probability densities, 1/m.
 
 use crate::crossing::Crossing;
 use crate::radial::{self, outer_layer_fine_fraction, radial_density, uniform_mixing_ratio};
 use crate::steady::{steady_rate, SteadyOptions, SteadyRate};
+use crate::temporal::fine_fraction_by_discharged_mass;
 
 /// Choices that define the responses.
 #[derive(Debug, Clone, PartialEq)]
@@ -84,6 +88,10 @@ pub struct DischargeResponses {
     pub exit_speed_m_per_s: Option<f64>,
     /// `(layer thickness fraction, fine mass fraction in that layer)`.
     pub fine_fraction_outer: Vec<(f64, Option<f64>)>,
+    /// Fines' mass fraction in the first quarter of the discharged mass.
+    pub fine_fraction_first_quarter: Option<f64>,
+    /// Fines' mass fraction in the last quarter of the discharged mass.
+    pub fine_fraction_last_quarter: Option<f64>,
 }
 
 impl DischargeResponses {
@@ -130,6 +138,12 @@ impl DischargeResponses {
                 / discharged_mass_kg
         });
         let steady = steady_rate(crossings, &options.steady);
+        // Quarters need a particle in each; with fewer crossings they mean nothing.
+        let quarters = fine_fraction_by_discharged_mass(crossings, options.fine_type, 4);
+        let quarter = |k: usize| {
+            (quarters.len() == 4 && fines().next().is_some())
+                .then(|| quarters[k].fine_mass_fraction)
+        };
         DischargeResponses {
             discharged_count: crossings.len(),
             discharged_mass_kg,
@@ -144,6 +158,8 @@ impl DischargeResponses {
             stream_radius_95_m,
             exit_speed_m_per_s,
             fine_fraction_outer,
+            fine_fraction_first_quarter: quarter(0),
+            fine_fraction_last_quarter: quarter(3),
         }
     }
 
@@ -166,6 +182,14 @@ impl DischargeResponses {
             ("stream_radius", self.stream_radius_m),
             ("stream_radius_95", self.stream_radius_95_m),
             ("exit_speed", self.exit_speed_m_per_s),
+            (
+                "fine_fraction_first_quarter",
+                self.fine_fraction_first_quarter,
+            ),
+            (
+                "fine_fraction_last_quarter",
+                self.fine_fraction_last_quarter,
+            ),
         ];
         out.extend(
             optional
@@ -201,6 +225,8 @@ pub fn response_names() -> Vec<String> {
         "stream_radius",
         "stream_radius_95",
         "exit_speed",
+        "fine_fraction_first_quarter",
+        "fine_fraction_last_quarter",
     ]
     .iter()
     .map(|s| s.to_string())

@@ -12,7 +12,10 @@
 //!   the input (clamping raises e = 0.3 to about 0.40);
 //! - the tangential history `ξ` grows by `vt dt`, is turned into the current tangent
 //!   plane, `Ft = -kt ξ - γt vt`, and when `|kt ξ| > μ |Fn|` the contact slides:
-//!   `Ft = μ |Fn|` against `ξ` and `ξ` is shortened to match.
+//!   `Ft = μ |Fn|` against `ξ` and `ξ` is shortened to match;
+//! - the rolling torque (`rolling_friction cdt`) is `μr kn δ R*` against the relative
+//!   spin's part in the tangent plane: the elastic normal force, not the damped one,
+//!   and no torque against twisting about the normal, as LIGGGHTS's CDT model has it.
 
 use crate::material::PairConstants;
 use crate::math::{Real, Vec3};
@@ -92,14 +95,18 @@ pub fn hertz_mindlin(
         elastic - gamma_t * vt
     };
 
+    // LIGGGHTS's constant directional torque: μr kn δ R* against the relative spin's
+    // part in the tangent plane (twisting about the normal is left alone).
     let mut rolling_torque = Vec3::zeros();
     if constants.rolling_friction > 0.0 {
-        let spin = relative_spin.norm();
+        let rolling_spin = relative_spin - relative_spin.dot(&n) * n;
+        let spin = rolling_spin.norm();
         if spin > 0.0 {
             rolling_torque = -constants.rolling_friction
-                * normal_force.abs()
+                * kn
+                * geometry.overlap_m
                 * geometry.effective_radius_m
-                * relative_spin
+                * rolling_spin
                 / spin;
         }
     }

@@ -60,6 +60,56 @@ impl BedRadialProfile {
     }
 }
 
+/// The angle of a heap's free surface around the vertical axis x = y = 0, degrees,
+/// positive when the surface falls away from the axis (a poured cone's angle of
+/// repose).
+///
+/// The rings `[r, r + ring_m)` from `from_m` to `to_m` each give a surface height: the
+/// mean top (centre height plus radius) of their `highest` highest particles, so that
+/// one particle perched on the heap does not set it. The angle is that of the
+/// least-squares line through the rings' mid-radii and heights. `None` when a ring
+/// holds fewer than `highest` particles or there are fewer than two rings.
+pub fn heap_angle_deg(
+    particles: &[Sighting],
+    from_m: f64,
+    to_m: f64,
+    ring_m: f64,
+    highest: usize,
+) -> Option<f64> {
+    let rings = ((to_m - from_m) / ring_m).floor() as usize;
+    if rings < 2 || highest == 0 {
+        return None;
+    }
+    let mut tops: Vec<Vec<f64>> = vec![Vec::new(); rings];
+    for p in particles {
+        let r = p.position_m[0].hypot(p.position_m[1]);
+        if r >= from_m {
+            let ring = ((r - from_m) / ring_m) as usize;
+            if ring < rings {
+                tops[ring].push(p.position_m[2] + p.radius_m);
+            }
+        }
+    }
+    let mut points = Vec::with_capacity(rings);
+    for (k, ring) in tops.iter_mut().enumerate() {
+        if ring.len() < highest {
+            return None;
+        }
+        ring.sort_by(|a, b| b.total_cmp(a));
+        let height = ring[..highest].iter().sum::<f64>() / highest as f64;
+        points.push((from_m + (k as f64 + 0.5) * ring_m, height));
+    }
+    let n = points.len() as f64;
+    let mean_r = points.iter().map(|p| p.0).sum::<f64>() / n;
+    let mean_h = points.iter().map(|p| p.1).sum::<f64>() / n;
+    let (mut covariance, mut variance) = (0.0, 0.0);
+    for (r, h) in &points {
+        covariance += (r - mean_r) * (h - mean_h);
+        variance += (r - mean_r) * (r - mean_r);
+    }
+    Some((-covariance / variance).atan().to_degrees())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -106,6 +156,34 @@ mod tests {
         assert!((profile.ratio() - 1.0).abs() < 1e-12);
         // Mean radius of a uniform disk is 2R/3, to the grid's resolution.
         assert!((profile.fine_mean_radius_m - 0.02).abs() < 2e-4);
+    }
+
+    /// Particles on a cone of 25° and a filling below it: the angle comes back.
+    #[test]
+    fn a_cone_of_particles_gives_its_angle() {
+        let (radius, top, slope) = (0.0015, 0.03, 25f64.to_radians().tan());
+        let mut heap = Vec::new();
+        for i in 0..40 {
+            let r = 0.001 * i as f64;
+            for k in 0..36 {
+                let angle = k as f64 * std::f64::consts::TAU / 36.0 + 0.1 * i as f64;
+                let (x, y) = (r * angle.cos(), r * angle.sin());
+                let surface = top - r * slope;
+                heap.push(Sighting {
+                    position_m: [x, y, surface - radius],
+                    ..particle(radius, x, y)
+                });
+                heap.push(Sighting {
+                    position_m: [x, y, 0.5 * surface],
+                    ..particle(radius, x, y)
+                });
+            }
+        }
+        let angle = heap_angle_deg(&heap, 0.005, 0.035, 0.005, 3).unwrap();
+        assert!((angle - 25.0).abs() < 0.5, "{angle}");
+        // A ring with too few particles, or a single ring, gives no angle.
+        assert_eq!(heap_angle_deg(&heap, 0.005, 0.035, 0.005, 1000), None);
+        assert_eq!(heap_angle_deg(&heap, 0.005, 0.009, 0.005, 3), None);
     }
 
     #[test]

@@ -26,6 +26,7 @@ mod pour;
 mod real_liggghts;
 mod refusals;
 mod reports;
+mod repose;
 mod reuse;
 mod rounds;
 mod scripts;

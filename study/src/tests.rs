@@ -188,7 +188,7 @@ fn objectives_name_their_responses_and_need_one_form() {
     );
     assert_eq!(
         error(&with("objective: {response: flow, goal: maximise}\n")),
-        "jobs/study.yaml:18:23: objective.response: unknown response `flow`; expected one of: discharged_count, discharged_mass, discharge_rate, discharge_rate_ci95, R1_mean, R2_mean, segregation_ratio, segregation_ratio_normalised, stream_radius, stream_radius_95, exit_speed, fine_fraction_outer_2, fine_fraction_outer_5, fine_fraction_outer_10, fine_fraction_outer_12"
+        "jobs/study.yaml:18:23: objective.response: unknown response `flow`; expected one of: discharged_count, discharged_mass, discharge_rate, discharge_rate_ci95, R1_mean, R2_mean, segregation_ratio, segregation_ratio_normalised, stream_radius, stream_radius_95, exit_speed, fine_fraction_first_quarter, fine_fraction_last_quarter, fine_fraction_outer_2, fine_fraction_outer_5, fine_fraction_outer_10, fine_fraction_outer_12"
     );
     assert_eq!(
         error(&with("rounds: 2\n")),
@@ -609,7 +609,7 @@ fn a_pareto_objective_lists_two_or_more_responses_each_with_its_goal() {
     );
     assert_eq!(
         error(&with("objective:\n  objectives:\n    - {response: discharge_rate, goal: maximise}\n    - {response: flow, goal: minimise}\n")),
-        "jobs/study.yaml:21:18: objective.objectives[1].response: unknown response `flow`; expected one of: discharged_count, discharged_mass, discharge_rate, discharge_rate_ci95, R1_mean, R2_mean, segregation_ratio, segregation_ratio_normalised, stream_radius, stream_radius_95, exit_speed, fine_fraction_outer_2, fine_fraction_outer_5, fine_fraction_outer_10, fine_fraction_outer_12"
+        "jobs/study.yaml:21:18: objective.objectives[1].response: unknown response `flow`; expected one of: discharged_count, discharged_mass, discharge_rate, discharge_rate_ci95, R1_mean, R2_mean, segregation_ratio, segregation_ratio_normalised, stream_radius, stream_radius_95, exit_speed, fine_fraction_first_quarter, fine_fraction_last_quarter, fine_fraction_outer_2, fine_fraction_outer_5, fine_fraction_outer_10, fine_fraction_outer_12"
     );
     assert_eq!(
         error(&with("objective:\n  objectives:\n    - {response: discharge_rate, goal: maximise}\n    - {response: discharge_rate, goal: minimise}\n")),

@@ -6,12 +6,11 @@
 //! transcription by another code, not of the law against Maw, Barber & Fawcett.
 
 use std::path::PathBuf;
-use std::process::Command;
 
 use orch_dem::case::{Case, TypeRef};
 use orch_dem::verify::Quantity;
 
-use crate::support::{require_liggghts, root, solver_lock, text};
+use crate::support::{require_liggghts, root, run_in, solver_lock};
 
 /// Sticking and sliding cases of each test: against a wall, an equal sphere and a
 /// larger one.
@@ -126,20 +125,12 @@ fn liggghts_rebounds_from_oblique_impacts_as_the_verification_references_say() {
         let case = Case::parse(&std::fs::read_to_string(&file).unwrap()).unwrap();
         let input = scratch.path().join(format!("in.{name}"));
         std::fs::write(&input, deck(&case)).unwrap();
-        let output = Command::new("liggghts")
-            .args([
-                "-in",
-                input.to_str().unwrap(),
-                "-log",
-                "none",
-                "-echo",
-                "none",
-            ])
-            .current_dir(scratch.path())
-            .output()
-            .unwrap();
-        let stdout = text(&output.stdout);
-        assert!(output.status.success(), "{name}: LIGGGHTS failed\n{stdout}");
+        let input = input.to_str().unwrap();
+        let stdout = run_in(
+            scratch.path(),
+            "liggghts",
+            &["-in", input, "-log", "none", "-echo", "none"],
+        );
         let line = stdout
             .lines()
             .find_map(|l| l.strip_prefix("REBOUND "))

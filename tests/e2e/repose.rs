@@ -8,13 +8,12 @@
 use std::fs::File;
 use std::io::BufReader;
 use std::path::Path;
-use std::process::Command;
 
 use orch_adapters::dump::read_dump;
 use orch_granular::bed::heap_angle_deg;
 use orch_granular::Sighting;
 
-use crate::support::{require_liggghts, solver_lock, text};
+use crate::support::{require_liggghts, run_in, solver_lock};
 
 /// Particle radius, m.
 const RADIUS_M: f64 = 0.0015;
@@ -194,20 +193,6 @@ fn angle(bed: &[Sighting]) -> f64 {
     heap_angle_deg(bed, 0.010, 0.034, 0.004, 3).expect("every ring of the heap holds particles")
 }
 
-fn run(program: &str, args: &[&str], dir: &Path) {
-    let output = Command::new(program)
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .unwrap();
-    assert!(
-        output.status.success(),
-        "{program} failed:\n{}\n{}",
-        text(&output.stdout),
-        text(&output.stderr)
-    );
-}
-
 #[test]
 fn a_poured_heap_stands_at_the_same_angle_on_the_native_kernel_and_on_liggghts() {
     if !require_liggghts() {
@@ -226,11 +211,11 @@ fn a_poured_heap_stands_at_the_same_angle_on_the_native_kernel_and_on_liggghts()
     std::fs::write(native.join("heap.toml"), native_case()).unwrap();
     std::fs::write(liggghts.join("in.heap"), liggghts_deck()).unwrap();
     let orch_dem = crate::support::orch_bin().with_file_name("orch-dem");
-    run(orch_dem.to_str().unwrap(), &["run", "heap.toml"], &native);
-    run(
+    run_in(&native, orch_dem.to_str().unwrap(), &["run", "heap.toml"]);
+    run_in(
+        &liggghts,
         "liggghts",
         &["-in", "in.heap", "-log", "log.liggghts", "-echo", "none"],
-        &liggghts,
     );
     let (native_bed, liggghts_bed) = (settled(&native), settled(&liggghts));
     let (native_angle, liggghts_angle) = (angle(&native_bed), angle(&liggghts_bed));

@@ -302,6 +302,25 @@ pub fn text(bytes: &[u8]) -> String {
     String::from_utf8_lossy(bytes).into_owned()
 }
 
+/// Runs `program` with `args` in `dir`, as a solver is run by hand; fails the test with
+/// its output unless it succeeds, and returns its standard output.
+pub fn run_in(dir: &Path, program: &str, args: &[&str]) -> String {
+    let output = Command::new(program)
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .unwrap_or_else(|e| panic!("cannot start {program}: {e}"));
+    assert!(
+        output.status.success(),
+        "{program} {} failed in {}:\n{}\n{}",
+        args.join(" "),
+        dir.display(),
+        text(&output.stdout),
+        text(&output.stderr)
+    );
+    text(&output.stdout)
+}
+
 /// Number of jobs of a status JSON in `state`.
 pub fn count(status: &Value, state: &str) -> usize {
     status["jobs"]

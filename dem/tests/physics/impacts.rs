@@ -5,7 +5,7 @@ use orch_dem::force::hertz_contact_time_s;
 use orch_dem::material::PairConstants;
 use orch_dem::{Simulation, Vec3};
 
-use crate::{config, floor, material, particles, run_until, sphere};
+use crate::{config, floor, hertz_largest_overlap_m, material, particles, run_until, sphere};
 
 const RADIUS: f64 = 0.001;
 
@@ -99,11 +99,13 @@ fn oblique_impact_in_the_sliding_regime_loses_the_coulomb_impulse() {
     assert_relative_eq!(vt - v.x, expected_loss, max_relative = 0.02);
     let spin = sim.particles.angular_velocity[0].y;
     let rigid = 2.5 * expected_loss / RADIUS;
-    // Hertz's largest overlap of an elastic impact at vn: (15 m v² / (16 E* √r))^(2/5),
-    // E* of two equal materials E / (2 (1 − ν²)).
-    let effective_youngs = m.youngs_modulus_pa / (2.0 * (1.0 - m.poisson_ratio.powi(2)));
-    let mass = sim.particles.mass_kg[0];
-    let overlap = (15.0 * mass * vn * vn / (16.0 * effective_youngs * RADIUS.sqrt())).powf(0.4);
+    // Hertz's largest overlap of the impact at vn, against a wall of the same material.
+    let overlap = hertz_largest_overlap_m(
+        sim.particles.mass_kg[0],
+        RADIUS,
+        PairConstants::between(&m, &m).effective_youngs_pa,
+        vn,
+    );
     assert!(
         spin <= rigid && spin >= rigid * (1.0 - overlap / (2.0 * RADIUS)),
         "spin {spin} rad/s outside [{}, {rigid}] (largest overlap {overlap} m)",

@@ -83,6 +83,19 @@ pub fn particles(kind: &ParticleType, positions: &[Vec3], velocities: &[Vec3]) -
     p
 }
 
+/// Hertz's largest overlap of an elastic impact at `speed_m_per_s`,
+/// `(15 m* v² / (16 E* √R*))^(2/5)`, m (Johnson, *Contact Mechanics*, 1985, §11.4).
+pub fn hertz_largest_overlap_m(
+    effective_mass_kg: Real,
+    effective_radius_m: Real,
+    effective_youngs_pa: Real,
+    speed_m_per_s: Real,
+) -> Real {
+    (15.0 * effective_mass_kg * speed_m_per_s * speed_m_per_s
+        / (16.0 * effective_youngs_pa * effective_radius_m.sqrt()))
+    .powf(0.4)
+}
+
 /// Runs until `done` says so or `max_steps` pass; returns the steps taken.
 pub fn run_until(
     simulation: &mut Simulation,

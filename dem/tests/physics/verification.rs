@@ -10,6 +10,7 @@ use orch_dem::material::PairConstants;
 use orch_dem::verify::{self, Quantity};
 use orch_dem::Simulation;
 
+use crate::hertz_largest_overlap_m;
 use crate::impact_reference::{self, Rebound, Sphere, Target};
 
 fn folder() -> PathBuf {
@@ -123,9 +124,7 @@ fn each_reference_follows_from_the_case_inputs() {
             (kind.mass_kg(), kind.radius_m)
         };
         let e_star = pair.effective_youngs_pa;
-        // The largest overlap of an elastic impact: (15 m* v² / (16 E* √R*))^(2/5).
-        let hertz_overlap_m =
-            || (15.0 * m_star * speed * speed / (16.0 * e_star * r_star.sqrt())).powf(0.4);
+        let hertz_overlap_m = || hertz_largest_overlap_m(m_star, r_star, e_star, speed);
         let mu = pair.friction;
         let tan_theta = g.x / -g.z;
         let signed = table.check.iter().any(|c| {

@@ -130,6 +130,22 @@ pub fn hertz_contact_time_s(
         .powf(0.2)
 }
 
+/// The approach speed at which an undamped head-on Hertz impact of two spheres
+/// reaches the overlap `overlap_m`: the largest overlap at speed `v` is
+/// `(15 m* v² / (16 E* sqrt(R*)))^(2/5)` (Johnson 1985, §11.4), so
+/// `v = sqrt(16 E* sqrt(R*) δ^(5/2) / (15 m*))`, m/s. It says how soft a contact is:
+/// bodies that meet faster overlap deeper, whatever the time step.
+pub fn hertz_speed_for_overlap_m_per_s(
+    effective_mass_kg: Real,
+    effective_radius_m: Real,
+    effective_youngs_pa: Real,
+    overlap_m: Real,
+) -> Real {
+    (16.0 * effective_youngs_pa * effective_radius_m.sqrt() * overlap_m.powf(2.5)
+        / (15.0 * effective_mass_kg))
+        .sqrt()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -154,6 +170,16 @@ mod tests {
             effective_radius_m: 0.0005,
             effective_mass_kg: 1e-5,
         }
+    }
+
+    #[test]
+    fn the_speed_for_an_overlap_inverts_hertz_largest_overlap() {
+        let (mass_kg, radius_m, youngs_pa, speed): (Real, Real, Real, Real) =
+            (1e-5, 0.0005, 2.7e6, 1.7);
+        let overlap_m =
+            (15.0 * mass_kg * speed * speed / (16.0 * youngs_pa * radius_m.sqrt())).powf(0.4);
+        let back = hertz_speed_for_overlap_m_per_s(mass_kg, radius_m, youngs_pa, overlap_m);
+        assert_relative_eq!(back, speed, max_relative = 1e-12);
     }
 
     #[test]

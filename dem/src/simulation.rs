@@ -33,7 +33,7 @@ use rayon::prelude::*;
 
 use crate::air::Air;
 use crate::air_field::AirField;
-use crate::force::{hertz_mindlin, ContactGeometry};
+use crate::force::{hertz_mindlin, hertz_speed_for_overlap_m_per_s, ContactGeometry};
 use crate::inflow::{Inflow, InflowError, InflowState};
 use crate::material::{ContactTable, Material, ParticleType};
 use crate::math::{Real, Vec3};
@@ -100,7 +100,7 @@ pub enum Unstable {
         timestep_s: Real,
     },
     /// Two bodies overlapped too deeply.
-    #[error("the run went unstable at step {step} (t = {time_s:.6} s): particle {id} overlaps {other} by {ratio:.3} of its radius, beyond the bound of {bound}; reduce the time step (now {timestep_s:.3e} s) or check that no particle starts inside a wall")]
+    #[error("the run went unstable at step {step} (t = {time_s:.6} s): particle {id} overlaps {other} by {ratio:.3} of its radius, beyond the bound of {bound}. The contact is too soft for the loads it meets: the two meeting head on at {bound_speed_m_per_s:.3} m/s already overlap that much (Hertz), whatever the time step (now {timestep_s:.3e} s, within the Rayleigh and Hertz bounds when a case file set it); raise youngs_modulus (the overlap at a given speed scales as E^-2/5), or check that no particle starts inside a wall")]
     Overlap {
         /// Step number.
         step: u64,
@@ -114,6 +114,9 @@ pub enum Unstable {
         ratio: Real,
         /// The bound.
         bound: Real,
+        /// The approach speed at which an undamped head-on Hertz impact of the two
+        /// reaches the bound ([`crate::force::hertz_speed_for_overlap_m_per_s`]), m/s.
+        bound_speed_m_per_s: Real,
         /// The time step, s.
         timestep_s: Real,
     },
@@ -740,11 +743,7 @@ impl Simulation {
         let bound = self.config.max_overlap_ratio;
         if let Some((ratio, i, j)) = worst_pair {
             if ratio > bound {
-                return Err(self.overlap_error(
-                    i,
-                    format!("particle {}", self.particles.id[j]),
-                    ratio,
-                ));
+                return Err(self.overlap_error(i, Some(j), ratio));
             }
         }
         let started = Instant::now();
@@ -752,7 +751,7 @@ impl Simulation {
         self.timers.gather_and_walls += started.elapsed();
         if let Some((ratio, i)) = gathered.worst_wall {
             if ratio > bound {
-                return Err(self.overlap_error(i, "a wall".to_string(), ratio));
+                return Err(self.overlap_error(i, None, ratio));
             }
         }
         match gathered.first_too_fast {
@@ -768,14 +767,41 @@ impl Simulation {
         }
     }
 
-    fn overlap_error(&self, i: usize, other: String, ratio: Real) -> Unstable {
+    /// Particle `i` overlapping particle `j` (`None`: a wall) by `ratio` of the
+    /// smaller radius, past the bound.
+    fn overlap_error(&self, i: usize, j: Option<usize>, ratio: Real) -> Unstable {
+        let p = &self.particles;
+        let bound = self.config.max_overlap_ratio;
+        let kind_i = usize::from(p.kind[i]);
+        let (other, constants, radius_m, mass_kg, smaller_radius_m) = match j {
+            Some(j) => (
+                format!("particle {}", p.id[j]),
+                self.table.particles(kind_i, usize::from(p.kind[j])),
+                p.radius_m[i] * p.radius_m[j] / (p.radius_m[i] + p.radius_m[j]),
+                p.mass_kg[i] * p.mass_kg[j] / (p.mass_kg[i] + p.mass_kg[j]),
+                p.radius_m[i].min(p.radius_m[j]),
+            ),
+            None => (
+                "a wall".to_string(),
+                self.table.wall(kind_i),
+                p.radius_m[i],
+                p.mass_kg[i],
+                p.radius_m[i],
+            ),
+        };
         Unstable::Overlap {
             step: self.step,
             time_s: self.time_s,
-            id: self.particles.id[i],
+            id: p.id[i],
             other,
             ratio,
-            bound: self.config.max_overlap_ratio,
+            bound,
+            bound_speed_m_per_s: hertz_speed_for_overlap_m_per_s(
+                mass_kg,
+                radius_m,
+                constants.effective_youngs_pa,
+                bound * smaller_radius_m,
+            ),
             timestep_s: self.config.timestep_s,
         }
     }

@@ -59,6 +59,29 @@ fn the_case_is_the_liggghts_deck_s_case() {
     }
 }
 
+/// The neighbour skin is half the coarse radius, at most the fine radius, in both
+/// solvers' input: at 2:1 the two are equal; at 5:1 the fine radius.
+#[test]
+fn the_skin_is_at_most_the_fine_radius() {
+    let skin_of = |text: &str, key: &str| -> f64 {
+        let line = text.lines().find(|l| l.starts_with(key)).unwrap();
+        let value = line.trim_start_matches(key).trim_start_matches([' ', '=']);
+        value.split_whitespace().next().unwrap().parse().unwrap()
+    };
+    for (fine_diameter_m, skin_m) in [(0.002, 0.001), (0.0008, 0.0004)] {
+        let case = case_with(&[
+            ("coarse_diameter", 0.004),
+            ("fine_diameter", fine_diameter_m),
+            ("timestep", 5e-6),
+        ]);
+        let native = check(&case);
+        let dir = tempfile::tempdir().unwrap();
+        let deck = render_default(&crate::liggghts::SOLVER, &case, dir.path());
+        assert_eq!(skin_of(&native, "skin"), skin_m, "{native}");
+        assert_eq!(skin_of(&deck, "neighbor"), skin_m, "{deck}");
+    }
+}
+
 const LOG: &str = "orch-dem: case hopper.toml, 3 particles\n\
 step time_s particles kinetic_energy_J discharged_mass_kg\n\
 0 0 3 0 0\n\

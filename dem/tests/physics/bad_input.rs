@@ -1,9 +1,10 @@
 //! Bad case files, bad meshes and unstable runs are errors that say what is wrong.
 
 use orch_dem::case::Case;
+use orch_dem::material::PairConstants;
 use orch_dem::{Simulation, Unstable, Vec3};
 
-use crate::{config, floor, material, particles, sphere};
+use crate::{config, floor, hertz_largest_overlap_m, material, particles, sphere};
 
 const CASE: &str = r#"
 [run]
@@ -152,6 +153,42 @@ fn an_unstable_run_stops_with_the_step_and_the_particle() {
     let message = error.to_string();
     assert!(
         message.contains("at step") && message.contains("particle 1"),
+        "{message}"
+    );
+}
+
+/// A soft sphere thrown at a wall faster than its contact can hold, at a step far
+/// below the Hertz time, overlaps past the bound: the error blames the stiffness, not
+/// the step, and names the speed at which a head-on Hertz impact reaches the bound.
+#[test]
+fn an_overlap_at_a_safe_step_names_the_speed_the_stiffness_can_hold() {
+    let m = material(0.6, 0.5);
+    let kind = sphere(0.001, m);
+    let p = particles(
+        &kind,
+        &[Vec3::new(0.0, 0.0, 0.0011)],
+        &[Vec3::new(0.0, 0.0, -5.0)],
+    );
+    let mut sim = Simulation::new(config(1e-7, m), vec![kind], p, vec![floor(0.01)]).unwrap();
+    let error = (0..20_000)
+        .find_map(|_| sim.step().err())
+        .expect("a 5 m/s impact of a 5 MPa sphere overlaps past 0.25 radii");
+    let Unstable::Overlap {
+        bound_speed_m_per_s,
+        ..
+    } = error
+    else {
+        panic!("expected an overlap, got: {error}");
+    };
+    let wall_youngs_pa = PairConstants::between(&m, &m).effective_youngs_pa;
+    let overlap_m =
+        hertz_largest_overlap_m(kind.mass_kg(), 0.001, wall_youngs_pa, bound_speed_m_per_s);
+    assert!((overlap_m / 0.00025 - 1.0).abs() < 1e-9, "{overlap_m}");
+    assert!(bound_speed_m_per_s < 5.0, "{bound_speed_m_per_s}");
+    let message = error.to_string();
+    assert!(
+        message.contains("youngs_modulus")
+            && message.contains(&format!("{bound_speed_m_per_s:.3} m/s")),
         "{message}"
     );
 }

@@ -188,8 +188,13 @@ impl Simulation for EquipmentOnSolver {
         self.template.clone()
     }
 
+    /// The equipment's checks, then the solver's own reading of the rendered deck
+    /// ([`DemSolver::check_deck`]).
     fn check(&self, case: &Case) -> Result<(), RenderError> {
-        self.equipment.check(case)
+        for (_, text) in self.render_texts(case)? {
+            (self.solver.check_deck)(&text).map_err(RenderError::InvalidCase)?;
+        }
+        Ok(())
     }
 
     /// The deck from the template, after the equipment's checks.

@@ -45,6 +45,11 @@ pub struct DemSolver {
     /// The rendered deck made fit to run on this many cores (LIGGGHTS: its `processors`
     /// grid); with 1 core the deck as rendered.
     pub decompose: fn(deck: String, cores: usize) -> String,
+    /// Checks a rendered deck before anything is written, as far as orch can read it:
+    /// the native kernel's whole case file (its time step against the Rayleigh and
+    /// Hertz times included), so that a study whose runs would be refused fails at
+    /// `orch submit` instead of once per job. `Err` says what is wrong.
+    pub check_deck: fn(deck: &str) -> Result<(), String>,
     /// Reads what the program wrote into a run directory: crossings of `sensor`, loop
     /// time and work, series.
     pub parse:
@@ -53,6 +58,12 @@ pub struct DemSolver {
     /// half-written record left out); the other observations stay empty.
     pub parse_running:
         fn(case: &Case, sensor: &SensorPlane, run_dir: &Path) -> Result<Observations, ParseError>,
+}
+
+/// A deck orch cannot read before its solver does ([`DemSolver::check_deck`] of
+/// LIGGGHTS and YADE): accepted; the solver says what is wrong when it runs.
+pub fn deck_unchecked(_deck: &str) -> Result<(), String> {
+    Ok(())
 }
 
 impl DemSolver {

@@ -1097,3 +1097,27 @@ fn a_text_factor_cannot_carry_a_unit_or_a_spread() {
         "{error}"
     );
 }
+
+/// A time step the native kernel would refuse fails the study at load, naming the
+/// design point and the largest safe step; the same study on LIGGGHTS, which orch
+/// cannot read ahead, loads. Fine spheres (0.8 mm) at 20 µs: far above 0.3 of their
+/// Rayleigh time.
+#[test]
+fn a_time_step_the_kernel_would_refuse_fails_the_study_at_load() {
+    let fine = VALID.replace(
+        "  valve_diameter: 0.012\n",
+        "  valve_diameter: 0.012\n  fine_diameter: 0.0008\n  timestep: 0.00002\n",
+    );
+    assert!(load(&fine).is_ok(), "LIGGGHTS's deck is not read ahead");
+    let native = fine.replace("solver: liggghts", "solver: native");
+    let message = error(&native);
+    assert!(
+        message.contains("design point 0")
+            && message.contains("`timestep`")
+            && message.contains("above the largest safe time step")
+            && message.contains("give at most"),
+        "{message}"
+    );
+    let safe = native.replace("timestep: 0.00002", "timestep: 0.000002");
+    assert!(load(&safe).is_ok(), "{}", error(&safe));
+}

@@ -48,6 +48,7 @@ pub static SOLVER: DemSolver = DemSolver {
     ],
     command,
     decompose,
+    check_deck: crate::solver::deck_unchecked,
     parse,
     parse_running,
 };

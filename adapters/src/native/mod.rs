@@ -43,9 +43,20 @@ pub static SOLVER: DemSolver = DemSolver {
     ],
     command,
     decompose: deck_as_rendered,
+    check_deck: check_case,
     parse,
     parse_running,
 };
+
+/// The rendered case file as the kernel reads it (`orch_dem::case::Case::parse`):
+/// every field and its range, and a given time step against the Rayleigh and Hertz
+/// times of the case's particles.
+fn check_case(text: &str) -> Result<(), String> {
+    orch_dem::case::Case::parse(text).map(drop).map_err(|e| {
+        let message = e.to_string().replace("`run.timestep`", "`timestep`");
+        format!("the native kernel would refuse its case file: {message}")
+    })
+}
 
 /// The kernel's log in the run directory.
 pub const LOG_FILE: &str = "log.native";

@@ -39,6 +39,7 @@ pub static SOLVER: DemSolver = DemSolver {
     }],
     command,
     decompose: deck_as_rendered,
+    check_deck: crate::solver::deck_unchecked,
     parse,
     parse_running: crate::native::parse_running,
 };

@@ -83,6 +83,42 @@ pub struct BenchArgs {
     /// Folder for the runs (default: a temporary folder, removed afterwards).
     #[arg(long)]
     dir: Option<PathBuf>,
+    /// Hopper: a parameter of `orch params hopper` set on top of the bench's own,
+    /// repeatable; e.g. the 5:1 experiment's mixture: `--set fine_diameter=0.0008
+    /// --set fine_mass_fraction=0.2 --set youngs_modulus=2e8 --set timestep=1.2e-6`.
+    #[arg(long = "set", value_name = "NAME=VALUE", value_parser = parse_setting)]
+    set: Vec<(String, f64)>,
+}
+
+/// `NAME=VALUE` of `--set`.
+fn parse_setting(text: &str) -> Result<(String, f64), String> {
+    let (name, value) = text
+        .split_once('=')
+        .ok_or_else(|| format!("`{text}` is not NAME=VALUE (e.g. fine_diameter=0.0008)"))?;
+    let value: f64 = value
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{value}` in `{text}` is not a number"))?;
+    Ok((name.trim().to_string(), value))
+}
+
+/// Refuses a `--set` the hopper does not take or a value outside its range, naming
+/// the parameter and the range.
+fn check_settings(settings: &[(String, f64)]) -> anyhow::Result<()> {
+    for (name, value) in settings {
+        let Some(spec) = hopper::PARAMETERS.iter().find(|p| p.name == name.as_str()) else {
+            bail!("--set {name}: the hopper has no parameter `{name}`; `orch params hopper` lists them");
+        };
+        if !(spec.min..=spec.max).contains(value) {
+            bail!(
+                "--set {name}={value}: outside [{}, {}] {}; give a value in that range",
+                spec.min,
+                spec.max,
+                spec.unit
+            );
+        }
+    }
+    Ok(())
 }
 
 /// A code on some cores.
@@ -247,6 +283,9 @@ fn hopper_case(args: &BenchArgs, particles: u32) -> Case {
     // The solver notes' deck: 0.5 mm, 50 Hz vertical vibration while discharging.
     parameters.set("amplitude", 0.0005);
     parameters.set("frequency", 50.0);
+    for (name, value) in &args.set {
+        parameters.set(name, *value);
+    }
     Case {
         parameters,
         seed: 1,
@@ -477,6 +516,10 @@ fn settled_bed_run(
 
 /// Runs the comparison and prints it.
 pub fn bench(args: &BenchArgs) -> anyhow::Result<()> {
+    check_settings(&args.set)?;
+    if !args.set.is_empty() && args.case != BenchCase::Hopper {
+        bail!("--set applies to the hopper only; drop it or run --case hopper");
+    }
     let temporary;
     let root = match &args.dir {
         Some(dir) => dir.clone(),
@@ -512,10 +555,16 @@ pub fn bench(args: &BenchArgs) -> anyhow::Result<()> {
     } else {
         let case = hopper_case(args, 3000);
         println!(
-            "hopper: 4 mm / 2 mm spheres (half of the mass each), dt {:e} s, fill {} s + discharge {} s, 0.5 mm 50 Hz vibration",
+            "hopper: {} mm / {} mm spheres ({} % of the mass fine), E {:e} Pa, dt {:e} s, fill {} s + discharge {} s, {} mm {} Hz vibration",
+            1e3 * case.get("coarse_diameter"),
+            1e3 * case.get("fine_diameter"),
+            100.0 * case.get("fine_mass_fraction"),
+            case.get("youngs_modulus"),
             case.get("timestep"),
             args.fill_time,
-            args.discharge_time
+            args.discharge_time,
+            1e3 * case.get("amplitude"),
+            case.get("frequency")
         );
     }
     println!("load before the runs: {}", load_average());
@@ -720,4 +769,28 @@ fn table(rows: &[Row], settle: bool) -> String {
         "p-steps/s: Σ particles × steps / loop time, each code's own accounting; ÷native1: against native on 1 core at the same size; cost÷1st: time per particle-step against the same code and cores at the first size; peak MB: largest resident set of one process (with MPI: of the largest rank); B/part: peak / particles"
     );
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_setting_is_a_hopper_parameter_within_its_range() {
+        assert_eq!(
+            parse_setting("fine_diameter = 0.0008"),
+            Ok(("fine_diameter".to_string(), 0.0008))
+        );
+        assert!(parse_setting("fine_diameter").is_err());
+        assert!(parse_setting("fine_diameter=small").is_err());
+        let setting = |name: &str, value: f64| vec![(name.to_string(), value)];
+        assert!(check_settings(&setting("youngs_modulus", 2e8)).is_ok());
+        let unknown = check_settings(&setting("fine_diametre", 0.0008)).unwrap_err();
+        assert!(
+            unknown.to_string().contains("orch params hopper"),
+            "{unknown}"
+        );
+        let outside = check_settings(&setting("fine_diameter", 5.0)).unwrap_err();
+        assert!(outside.to_string().contains("outside"), "{outside}");
+    }
 }

@@ -116,6 +116,9 @@ pub struct Observations {
     /// Sum over particle–wall impacts of the normal approach energy `½ m v_n²`, J, when
     /// the solver reports it (the native kernel does).
     pub wall_impact_energy_j: Option<f64>,
+    /// The deepest overlap of the run over the smaller radius, when the solver reports
+    /// it (the native kernel does).
+    pub largest_overlap_ratio: Option<f64>,
     /// Time series read from solver output other than the crossings.
     pub series: Vec<Series>,
 }

@@ -24,6 +24,9 @@ use crate::{
 pub const SOLVER_LOOP_TIME: &str = "solver_loop_time";
 /// Particle steps per second of wall time in the solver's loop.
 pub const SOLVER_THROUGHPUT: &str = "solver_particle_steps_per_s";
+/// The response holding the run's deepest overlap over the smaller radius, when the
+/// solver reports it: how close the run came to the native kernel's overlap bound.
+pub const SOLVER_LARGEST_OVERLAP: &str = "solver_largest_overlap";
 
 /// What runs for each design point of a study: its parameters and responses for
 /// validation, and render, command and results for the driver.
@@ -243,6 +246,11 @@ impl Simulation for EquipmentOnSolver {
                     .responses
                     .push((SOLVER_THROUGHPUT.to_string(), work / loop_time));
             }
+        }
+        if let Some(ratio) = observations.largest_overlap_ratio {
+            results
+                .responses
+                .push((SOLVER_LARGEST_OVERLAP.to_string(), ratio));
         }
         Ok(results)
     }

@@ -100,7 +100,7 @@ pub enum Unstable {
         timestep_s: Real,
     },
     /// Two bodies overlapped too deeply.
-    #[error("the run went unstable at step {step} (t = {time_s:.6} s): particle {id} overlaps {other} by {ratio:.3} of its radius, beyond the bound of {bound}. The contact is too soft for the loads it meets: the two meeting head on at {bound_speed_m_per_s:.3} m/s already overlap that much (Hertz), whatever the time step (now {timestep_s:.3e} s, within the Rayleigh and Hertz bounds when a case file set it); raise youngs_modulus (the overlap at a given speed scales as E^-2/5), or check that no particle starts inside a wall")]
+    #[error("the run went unstable at step {step} (t = {time_s:.6} s): particle {id} overlaps {other} by {ratio:.3} of its radius, beyond the bound of {bound}. The contact is too soft for its load: alone, the two would reach that overlap (Hertz) meeting head on at {bound_speed_m_per_s:.3} m/s, so they met that fast or something heavier pressed them together (a small sphere caught between a falling larger one and a wall), whatever the time step (now {timestep_s:.3e} s, within the Rayleigh and Hertz bounds when a case file set it); raise youngs_modulus (at a given load the overlap scales as E^-2/5), or check that no particle starts inside a wall")]
     Overlap {
         /// Step number.
         step: u64,
@@ -277,6 +277,7 @@ pub struct Simulation {
     /// Each particle's wall impact energy of the last force computation, J (scratch).
     impact_energy_j: Vec<Real>,
     wall_impact_energy_j: Real,
+    largest_overlap_ratio: Real,
 }
 
 /// Why a simulation cannot be set up.
@@ -403,6 +404,7 @@ impl Simulation {
             inflows: Vec::new(),
             impact_energy_j: Vec::new(),
             wall_impact_energy_j: 0.0,
+            largest_overlap_ratio: 0.0,
             next_id: particles.max_id().map_or(1, |id| id + 1),
             particles,
             config,
@@ -446,6 +448,15 @@ impl Simulation {
     /// of its wear.
     pub fn wall_impact_energy_j(&self) -> Real {
         self.wall_impact_energy_j
+    }
+
+    /// The deepest overlap of any two particles, or of a particle and a wall, in any
+    /// step so far, as a fraction of the smaller radius: how close the run came to the
+    /// bound ([`Config::max_overlap_ratio`]) that stops it. Soft spheres in a dense
+    /// flow sit at a few per cent; a sphere squeezed between a heavier falling one and
+    /// a wall goes much deeper.
+    pub fn largest_overlap_ratio(&self) -> Real {
+        self.largest_overlap_ratio
     }
 
     /// Simulated time, s.
@@ -742,6 +753,7 @@ impl Simulation {
         self.timers.pairs += started.elapsed();
         let bound = self.config.max_overlap_ratio;
         if let Some((ratio, i, j)) = worst_pair {
+            self.largest_overlap_ratio = self.largest_overlap_ratio.max(ratio);
             if ratio > bound {
                 return Err(self.overlap_error(i, Some(j), ratio));
             }
@@ -750,6 +762,7 @@ impl Simulation {
         let gathered = self.gather_and_kick(kick_dt_s);
         self.timers.gather_and_walls += started.elapsed();
         if let Some((ratio, i)) = gathered.worst_wall {
+            self.largest_overlap_ratio = self.largest_overlap_ratio.max(ratio);
             if ratio > bound {
                 return Err(self.overlap_error(i, None, ratio));
             }

@@ -170,6 +170,16 @@ fn the_native_kernel_on_two_threads_gives_the_responses_of_one_bit_for_bit() {
         };
         assert!(physical(r1).contains_key("discharge_rate"), "{r1:?}");
         assert_eq!(physical(r1), physical(r2), "{name}");
+        // The run's deepest overlap is a solver figure, but not a timing: the same
+        // on any number of threads, and well inside the kernel's bound of 0.25.
+        let overlap =
+            |r: &serde_json::Map<String, Value>| r["solver_largest_overlap"].as_f64().unwrap();
+        assert_eq!(overlap(r1), overlap(r2), "{name}");
+        assert!(
+            overlap(r1) > 0.0 && overlap(r1) < 0.25,
+            "{name}: {}",
+            overlap(r1)
+        );
         eprintln!(
             "{name}: loop time 1 thread {:.2} s, 2 threads {:.2} s",
             r1["solver_loop_time"].as_f64().unwrap(),

@@ -118,6 +118,7 @@ fn parse(case: &Case, sensor: &SensorPlane, run_dir: &Path) -> Result<Observatio
         solver_loop_time_s: Some(log.loop_time_s),
         particle_steps: Some(log.particle_steps),
         wall_impact_energy_j: None,
+        largest_overlap_ratio: None,
         series: vec![crate::Series {
             name: "kinetic_energy".to_string(),
             points: kinetic_energy,

@@ -1,7 +1,8 @@
 //! Reader of `log.native`, the native kernel's log: a thermo table
 //! (`step time_s particles kinetic_energy_J discharged_mass_kg`), then
 //! `Loop time of <s> s on <n> threads for <steps> steps with <p> particle-steps`, and
-//! `Wall impact energy of <J> J` (the sum of `½ m v_n²` over particle–wall impacts).
+//! `Wall impact energy of <J> J` (the sum of `½ m v_n²` over particle–wall impacts) and
+//! `Largest overlap of <ratio> of the smaller radius` (the deepest contact of the run).
 //! A run that stopped with an error has an `ERROR:` line and no loop line.
 
 use std::io::BufRead;
@@ -24,6 +25,36 @@ pub struct NativeLog {
     pub discharged_mass: Vec<(f64, f64)>,
     /// Sum over particle–wall impacts of `½ m v_n²`, J (absent from older logs).
     pub wall_impact_energy_j: Option<f64>,
+    /// The deepest overlap of the run over the smaller radius (absent from older logs).
+    pub largest_overlap_ratio: Option<f64>,
+}
+
+/// The log's `Largest overlap of <ratio> of the smaller radius` line, written and read
+/// through this type.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LargestOverlapLine(pub f64);
+
+impl LargestOverlapLine {
+    const PREFIX: &'static str = "Largest overlap of ";
+    const SUFFIX: &'static str = " of the smaller radius";
+
+    /// The ratio of a line, `None` when it is not this line; `Some(Err)` when it starts
+    /// like one and cannot be read.
+    fn parse(line: &str) -> Option<Result<f64, ()>> {
+        let rest = line.strip_prefix(Self::PREFIX)?;
+        Some(
+            rest.strip_suffix(Self::SUFFIX)
+                .and_then(|v| v.trim().parse::<f64>().ok())
+                .filter(|v| v.is_finite() && *v >= 0.0)
+                .ok_or(()),
+        )
+    }
+}
+
+impl std::fmt::Display for LargestOverlapLine {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}{:.6}{}", Self::PREFIX, self.0, Self::SUFFIX)
+    }
 }
 
 /// The thermo table's header.
@@ -111,6 +142,11 @@ pub fn read_log<R: BufRead>(reader: R, path: &Path) -> Result<NativeLog, ParseEr
                     malformed(number, format!("cannot read the impact line `{trimmed}`"))
                 })?;
             log.wall_impact_energy_j = Some(value);
+        } else if let Some(ratio) = LargestOverlapLine::parse(trimmed) {
+            let ratio = ratio.map_err(|()| {
+                malformed(number, format!("cannot read the overlap line `{trimmed}`"))
+            })?;
+            log.largest_overlap_ratio = Some(ratio);
         } else if let Some(rest) = trimmed.strip_prefix("Loop time of ") {
             let line = LoopLine::parse_after_prefix(rest).ok_or_else(|| {
                 malformed(number, format!("cannot read the loop line `{trimmed}`"))

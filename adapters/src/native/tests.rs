@@ -101,6 +101,28 @@ fn log_gives_loop_time_work_and_series() {
 }
 
 #[test]
+fn the_largest_overlap_line_reads_back_as_written_and_a_bad_one_is_an_error() {
+    let line = LargestOverlapLine(0.0412345).to_string();
+    assert_eq!(line, "Largest overlap of 0.041235 of the smaller radius");
+    let log = read_log(
+        Cursor::new(format!("{LOG}{line}\n")),
+        Path::new("log.native"),
+    )
+    .unwrap();
+    assert_eq!(log.largest_overlap_ratio, Some(0.041235));
+    assert_eq!(
+        read_log(Cursor::new(LOG), Path::new("log.native"))
+            .unwrap()
+            .largest_overlap_ratio,
+        None,
+        "older logs have no such line"
+    );
+    let bad = format!("{LOG}Largest overlap of deep of the smaller radius\n");
+    let error = read_log(Cursor::new(bad), Path::new("log.native")).unwrap_err();
+    assert!(error.to_string().contains("overlap line"), "{error}");
+}
+
+#[test]
 fn the_wall_impact_line_is_read_and_a_bad_one_is_an_error() {
     let with = format!("{LOG}Wall impact energy of 1.250000000e-3 J\n");
     let log = read_log(Cursor::new(with), Path::new("log.native")).unwrap();

@@ -83,6 +83,7 @@ fn parse(_case: &Case, _sensor: &SensorPlane, run_dir: &Path) -> Result<Observat
         solver_loop_time_s: Some(summary.loop_time_s),
         particle_steps: Some(summary.particle_steps),
         wall_impact_energy_j: None,
+        largest_overlap_ratio: None,
         series: Vec::new(),
     })
 }

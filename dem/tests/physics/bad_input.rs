@@ -185,6 +185,10 @@ fn an_overlap_at_a_safe_step_names_the_speed_the_stiffness_can_hold() {
         hertz_largest_overlap_m(kind.mass_kg(), 0.001, wall_youngs_pa, bound_speed_m_per_s);
     assert!((overlap_m / 0.00025 - 1.0).abs() < 1e-9, "{overlap_m}");
     assert!(bound_speed_m_per_s < 5.0, "{bound_speed_m_per_s}");
+    assert!(
+        sim.largest_overlap_ratio() > 0.25,
+        "the run's deepest overlap is kept"
+    );
     let message = error.to_string();
     assert!(
         message.contains("youngs_modulus")

@@ -212,6 +212,11 @@ pub fn run(case_path: &Path, log_path: &Path, threads: usize) -> anyhow::Result<
         "Wall impact energy of {:.9e} J",
         simulation.wall_impact_energy_j()
     )?;
+    writeln!(
+        log,
+        "{}",
+        orch_adapters::native::LargestOverlapLine(simulation.largest_overlap_ratio())
+    )?;
     if let Some(file) = stop_file.filter(|_| stopped_by_stop_file) {
         // After the loop line, where the native adapter's log reader ignores it.
         writeln!(

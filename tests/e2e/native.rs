@@ -165,10 +165,11 @@ fn same_responses_as_before_the_equipment_seam(status: &serde_json::Value) {
 }
 
 /// A time step beyond the largest safe one (0.3 of the fines' Rayleigh time here) is
-/// refused by the kernel before it steps, naming the safe step; the job fails with
-/// that reason and the study goes on (the other level's job succeeds).
+/// refused at `orch submit`, which reads every design point's case as the kernel will:
+/// the error names the point and the largest safe step, and nothing is written (the
+/// kernel's own refusal of such a case file is tested in `orch-dem`'s case tests).
 #[test]
-fn a_native_run_with_an_unsafe_time_step_fails_its_job_naming_the_safe_step() {
+fn a_native_study_with_an_unsafe_time_step_is_refused_at_submit_naming_the_safe_step() {
     let project = Project::new();
     let file = project.write(
         "unsafe.yaml",
@@ -183,21 +184,19 @@ fn a_native_run_with_an_unsafe_time_step_fails_its_job_naming_the_safe_step() {
     );
     let output = project.run(&["submit", file.to_str().unwrap()]);
     let stderr = text(&output.stderr);
-    assert_ne!(output.status.code(), Some(0), "{stderr}");
-    let status = project.status("unsafe");
-    assert_eq!(count(&status, "failed"), 1, "{status:#}");
-    assert_eq!(count(&status, "succeeded"), 1, "{status:#}");
-    let failed = status["jobs"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .find(|job| job["state"] == "failed")
-        .unwrap();
-    let error = failed["error"].as_str().unwrap();
+    assert_eq!(output.status.code(), Some(2), "{stderr}");
     assert!(
-        error.contains("8.0000e-4 s is above the largest safe time step for these particles")
-            && error.contains("give at most"),
-        "{error}"
+        stderr.contains("design point 1 (timestep = 0.0008)")
+            && stderr
+                .contains("8.0000e-4 s is above the largest safe time step for these particles")
+            && stderr.contains("give at most")
+            && stderr.contains("nothing was written"),
+        "{stderr}"
+    );
+    assert!(
+        !project.project_dir().exists(),
+        "a refused study wrote {}",
+        project.project_dir().display()
     );
 }
 

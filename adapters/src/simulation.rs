@@ -194,8 +194,11 @@ impl Simulation for EquipmentOnSolver {
     /// The equipment's checks, then the solver's own reading of the rendered deck
     /// ([`DemSolver::check_deck`]).
     fn check(&self, case: &Case) -> Result<(), RenderError> {
+        let Some(check_deck) = self.solver.check_deck else {
+            return self.equipment.check(case);
+        };
         for (_, text) in self.render_texts(case)? {
-            (self.solver.check_deck)(&text).map_err(RenderError::InvalidCase)?;
+            check_deck(&text).map_err(RenderError::InvalidCase)?;
         }
         Ok(())
     }

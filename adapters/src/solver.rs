@@ -48,8 +48,10 @@ pub struct DemSolver {
     /// Checks a rendered deck before anything is written, as far as orch can read it:
     /// the native kernel's whole case file (its time step against the Rayleigh and
     /// Hertz times included), so that a study whose runs would be refused fails at
-    /// `orch submit` instead of once per job. `Err` says what is wrong.
-    pub check_deck: fn(deck: &str) -> Result<(), String>,
+    /// `orch submit` instead of once per job. `Err` says what is wrong. `None` for a
+    /// solver whose decks orch cannot read ahead (LIGGGHTS, YADE): nothing is rendered
+    /// for a check, and the solver says what is wrong when it runs.
+    pub check_deck: Option<DeckCheck>,
     /// Reads what the program wrote into a run directory: crossings of `sensor`, loop
     /// time and work, series.
     pub parse:
@@ -60,11 +62,8 @@ pub struct DemSolver {
         fn(case: &Case, sensor: &SensorPlane, run_dir: &Path) -> Result<Observations, ParseError>,
 }
 
-/// A deck orch cannot read before its solver does ([`DemSolver::check_deck`] of
-/// LIGGGHTS and YADE): accepted; the solver says what is wrong when it runs.
-pub fn deck_unchecked(_deck: &str) -> Result<(), String> {
-    Ok(())
-}
+/// Reads a rendered deck ahead of its solver; `Err` says what is wrong.
+pub type DeckCheck = fn(deck: &str) -> Result<(), String>;
 
 impl DemSolver {
     /// The default template for `equipment`, if this solver has one.

@@ -48,7 +48,7 @@ pub static SOLVER: DemSolver = DemSolver {
     ],
     command,
     decompose,
-    check_deck: crate::solver::deck_unchecked,
+    check_deck: None,
     parse,
     parse_running,
 };

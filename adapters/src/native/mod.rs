@@ -43,7 +43,7 @@ pub static SOLVER: DemSolver = DemSolver {
     ],
     command,
     decompose: deck_as_rendered,
-    check_deck: check_case,
+    check_deck: Some(check_case),
     parse,
     parse_running,
 };

@@ -39,7 +39,7 @@ pub static SOLVER: DemSolver = DemSolver {
     }],
     command,
     decompose: deck_as_rendered,
-    check_deck: crate::solver::deck_unchecked,
+    check_deck: None,
     parse,
     parse_running: crate::native::parse_running,
 };

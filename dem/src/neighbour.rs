@@ -210,7 +210,20 @@ impl CellBins {
     /// Particle indices in cell `cell`, ascending.
     #[inline]
     pub fn members(&self, cell: usize) -> &[u32] {
-        &self.members[self.start[cell] as usize..self.start[cell + 1] as usize]
+        &self.members[self.slots(cell)]
+    }
+
+    /// Where cell `cell`'s members lie in [`CellBins::members`]' order, which the
+    /// per-bin copies of [`CellBins::gather`] share.
+    #[inline]
+    pub fn slots(&self, cell: usize) -> std::ops::Range<usize> {
+        self.start[cell] as usize..self.start[cell + 1] as usize
+    }
+
+    /// `values` in bin order: the value of every cell's members side by side, so a
+    /// loop over a cell's members reads contiguous memory.
+    pub fn gather<T: Copy>(&self, values: &[T]) -> Vec<T> {
+        self.members.iter().map(|&i| values[i as usize]).collect()
     }
 }
 
@@ -268,10 +281,13 @@ impl PairList {
     ) -> Self {
         let n = positions.len();
         let bins = CellBins::build(grid, positions);
-        let within = |i: u32, j: u32| {
-            let (i, j) = (i as usize, j as usize);
-            let reach = radii[i] + radii[j] + skin_m;
-            (positions[j] - positions[i]).norm_squared() < reach * reach
+        // Positions and radii in bin order: the loops below run over contiguous slices
+        // of them (a cell's members, and each neighbour cell's), not through indices.
+        let (bin_positions, bin_radii) = (bins.gather(positions), bins.gather(radii));
+        let bin = |cell: usize| {
+            let slots = bins.slots(cell);
+            let members = &bins.members[slots.clone()];
+            (members, &bin_positions[slots.clone()], &bin_radii[slots])
         };
         // Each pair once: a cell against itself and its 13 "forward" neighbours.
         // Folded into one vector per rayon job; the flattened order is the cell order
@@ -279,21 +295,25 @@ impl PairList {
         let found: Vec<Vec<(u32, u32)>> = (0..grid.len())
             .into_par_iter()
             .fold(Vec::new, |mut pairs, cell| {
-                let members = bins.members(cell);
+                let (members, xs, rs) = bin(cell);
                 if members.is_empty() {
                     return pairs;
                 }
-                for (a, &i) in members.iter().enumerate() {
-                    for &j in &members[a + 1..] {
-                        if within(i, j) {
+                for (a, ((&i, &xi), &ri)) in members.iter().zip(xs).zip(rs).enumerate() {
+                    let later = members[a + 1..].iter().zip(&xs[a + 1..]).zip(&rs[a + 1..]);
+                    for ((&j, &xj), &rj) in later {
+                        let reach = ri + rj + skin_m;
+                        if (xj - xi).norm_squared() < reach * reach {
                             pairs.push((i, j));
                         }
                     }
                 }
                 grid.for_each_forward_cell(cell, |other| {
-                    for &i in members {
-                        for &j in bins.members(other) {
-                            if within(i, j) {
+                    let (others, other_xs, other_rs) = bin(other);
+                    for ((&i, &xi), &ri) in members.iter().zip(xs).zip(rs) {
+                        for ((&j, &xj), &rj) in others.iter().zip(other_xs).zip(other_rs) {
+                            let reach = ri + rj + skin_m;
+                            if (xj - xi).norm_squared() < reach * reach {
                                 pairs.push((i.min(j), i.max(j)));
                             }
                         }

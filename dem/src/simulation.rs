@@ -572,25 +572,23 @@ impl Simulation {
             .enumerate()
             .map(|(c, ((xs, vs), ws))| {
                 let mut outcome = DriftOutcome::default();
-                for (k, ((x, v), w)) in xs.iter_mut().zip(vs).zip(ws).enumerate() {
+                // The chunk's slices of what the drift reads, zipped: no index checks.
+                let chunk = c * CHUNK..c * CHUNK + xs.len();
+                let loads = force_n[chunk.clone()]
+                    .iter()
+                    .zip(&torque_n_m[chunk.clone()]);
+                let bodies = mass_kg[chunk.clone()].iter().zip(&radius_m[chunk.clone()]);
+                let state = xs.iter_mut().zip(vs).zip(ws);
+                let each = state.zip(loads).zip(bodies).zip(&reference[chunk]);
+                for (k, (((((x, v), w), (&f, &t)), (&m, &r)), &x0)) in each.enumerate() {
                     let i = c * CHUNK + k;
-                    half_kick(
-                        v,
-                        w,
-                        force_n[i],
-                        torque_n_m[i],
-                        mass_kg[i],
-                        radius_m[i],
-                        half,
-                    );
+                    half_kick(v, w, f, t, m, r, half);
                     *x += dt * *v;
-                    outcome.moved_squared = outcome
-                        .moved_squared
-                        .max((*x - reference[i]).norm_squared());
+                    outcome.moved_squared = outcome.moved_squared.max((*x - x0).norm_squared());
                     // z before the drift is z - dt vz.
                     if let Some(plane) = sensor_z_m {
                         let z_before = x.z - dt * v.z;
-                        if !crossed[i] && z_before > plane && x.z <= plane {
+                        if x.z <= plane && z_before > plane && !crossed[i] {
                             let fraction = (z_before - plane) / (z_before - x.z);
                             let at = *x - (1.0 - fraction) * dt * *v;
                             outcome.crossings.push((
@@ -599,15 +597,15 @@ impl Simulation {
                                     time_s: time + fraction * dt,
                                     id: u64::from(id[i]),
                                     particle_type: u32::from(kind[i]) + 1,
-                                    radius_m: radius_m[i],
-                                    mass_kg: mass_kg[i],
+                                    radius_m: r,
+                                    mass_kg: m,
                                     position_m: [at.x, at.y, at.z],
                                     velocity_m_per_s: [v.x, v.y, v.z],
                                 },
                             ));
                         }
                     }
-                    if !leaving[i] && sink_z_m.is_some_and(|sink| x.z < sink) {
+                    if sink_z_m.is_some_and(|sink| x.z < sink) && !leaving[i] {
                         outcome.sunk.push(i);
                     }
                 }
@@ -884,7 +882,15 @@ impl Simulation {
                             (position_m[i], velocity_m_per_s[i], angular_velocity[i]);
                         let (ri, mi, ki) = (radius_m[i], mass_kg[i], kind[i] as usize);
                         let row = rows[i] as usize..rows[i + 1] as usize;
-                        for (local, &j) in (row.start - base..).zip(&partner[row]) {
+                        // The row's slices of the per-pair state, zipped with its
+                        // partners: no index checks on them.
+                        let local = row.start - base..row.end - base;
+                        let entries = partner[row]
+                            .iter()
+                            .zip(&mut in_contact[local.clone()])
+                            .zip(&mut shear[local.clone()])
+                            .zip(&mut loads[local]);
+                        for (((&j, touching), history), load) in entries {
                             let j = j as usize;
                             let rj = radius_m[j];
                             let offset = xi - position_m[j];
@@ -892,9 +898,9 @@ impl Simulation {
                             let distance_squared = offset.norm_squared();
                             if distance_squared >= reach * reach {
                                 // Only touching pairs carry a history and a load.
-                                if in_contact[local] {
-                                    in_contact[local] = false;
-                                    shear[local] = Vec3::zeros();
+                                if *touching {
+                                    *touching = false;
+                                    *history = Vec3::zeros();
                                 }
                                 continue;
                             }
@@ -912,10 +918,10 @@ impl Simulation {
                                 });
                             }
                             if distance == 0.0 {
-                                in_contact[local] = false;
+                                *touching = false;
                                 continue;
                             }
-                            in_contact[local] = true;
+                            *touching = true;
                             let n = offset * (1.0 / distance);
                             let mj = mass_kg[j];
                             let wj = angular_velocity[j];
@@ -937,7 +943,7 @@ impl Simulation {
                                 &geometry,
                                 contact_velocity,
                                 wi - wj,
-                                &mut shear[local],
+                                history,
                                 dt,
                             );
                             let lever = n.cross(&result.tangential);
@@ -949,7 +955,7 @@ impl Simulation {
                                 forces[j - first] -= result.force;
                                 torques[j - first] += torque_j;
                             } else {
-                                loads[local] = PairLoad {
+                                *load = PairLoad {
                                     force_on_first: result.force,
                                     torque_on_second: torque_j,
                                 };

@@ -207,14 +207,8 @@ impl CellBins {
         Self { start, members }
     }
 
-    /// Particle indices in cell `cell`, ascending.
-    #[inline]
-    pub fn members(&self, cell: usize) -> &[u32] {
-        &self.members[self.slots(cell)]
-    }
-
-    /// Where cell `cell`'s members lie in [`CellBins::members`]' order, which the
-    /// per-bin copies of [`CellBins::gather`] share.
+    /// Where cell `cell`'s members (their particle indices, ascending) lie in the bin
+    /// order, which the per-bin copies of [`CellBins::gather`] share.
     #[inline]
     pub fn slots(&self, cell: usize) -> std::ops::Range<usize> {
         self.start[cell] as usize..self.start[cell + 1] as usize
@@ -289,6 +283,10 @@ impl PairList {
             let members = &bins.members[slots.clone()];
             (members, &bin_positions[slots.clone()], &bin_radii[slots])
         };
+        let within = |xi: Vec3, ri: Real, xj: Vec3, rj: Real| {
+            let reach = ri + rj + skin_m;
+            (xj - xi).norm_squared() < reach * reach
+        };
         // Each pair once: a cell against itself and its 13 "forward" neighbours.
         // Folded into one vector per rayon job; the flattened order is the cell order
         // whatever the number of threads.
@@ -302,8 +300,7 @@ impl PairList {
                 for (a, ((&i, &xi), &ri)) in members.iter().zip(xs).zip(rs).enumerate() {
                     let later = members[a + 1..].iter().zip(&xs[a + 1..]).zip(&rs[a + 1..]);
                     for ((&j, &xj), &rj) in later {
-                        let reach = ri + rj + skin_m;
-                        if (xj - xi).norm_squared() < reach * reach {
+                        if within(xi, ri, xj, rj) {
                             pairs.push((i, j));
                         }
                     }
@@ -312,8 +309,7 @@ impl PairList {
                     let (others, other_xs, other_rs) = bin(other);
                     for ((&i, &xi), &ri) in members.iter().zip(xs).zip(rs) {
                         for ((&j, &xj), &rj) in others.iter().zip(other_xs).zip(other_rs) {
-                            let reach = ri + rj + skin_m;
-                            if (xj - xi).norm_squared() < reach * reach {
+                            if within(xi, ri, xj, rj) {
                                 pairs.push((i.min(j), i.max(j)));
                             }
                         }

@@ -12,13 +12,16 @@
 //!
 //! The kernel does no I/O: callers hand it bytes and writers. It is deterministic: the
 //! same case and seed give the same numbers, bit for bit, with any number of rayon
-//! threads (forces are summed per particle in a fixed order).
+//! threads (forces are summed per particle in a fixed order). [`awake::AwakeWorkers`]
+//! keeps a pool's other threads polling between a step's parallel passes, where they
+//! would otherwise sleep and be woken three times a step.
 
 #![warn(missing_docs)]
 #![forbid(unsafe_code)]
 
 pub mod air;
 pub mod air_field;
+pub mod awake;
 pub mod case;
 pub mod contact;
 pub mod force;

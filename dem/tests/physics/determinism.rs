@@ -1,13 +1,16 @@
-//! The same case gives the same numbers, bit for bit, run twice and on 1 or 2 threads.
+//! The same case gives the same numbers, bit for bit, run twice and on 1 or 2 threads,
+//! with the other threads sleeping between passes or kept polling.
 
+use orch_dem::awake::AwakeWorkers;
 use orch_dem::insert::{insert, Region};
 use orch_dem::particles::Particles;
 use orch_dem::{Simulation, Vec3};
 
 use crate::{config, floor, material, on_threads, sphere};
 
-fn settle(threads: usize) -> Vec<Vec3> {
+fn settle(threads: usize, awake: bool) -> Vec<Vec3> {
     on_threads(threads, || {
+        let _awake = awake.then(AwakeWorkers::start);
         let m = material(0.6, 0.5);
         let types = vec![sphere(0.002, m), sphere(0.001, m)];
         let mut p = Particles::default();
@@ -28,9 +31,10 @@ fn settle(threads: usize) -> Vec<Vec3> {
 
 #[test]
 fn a_run_is_reproducible_and_independent_of_the_thread_count() {
-    let one = settle(1);
-    assert_eq!(one, settle(1));
-    assert_eq!(one, settle(2));
+    let one = settle(1, false);
+    assert_eq!(one, settle(1, false));
+    assert_eq!(one, settle(2, false));
+    assert_eq!(one, settle(2, true));
     // The particles did fall and come to rest on the floor.
     let lowest = one.iter().map(|x| x.z).fold(f64::INFINITY, f64::min);
     assert!(

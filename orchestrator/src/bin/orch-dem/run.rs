@@ -8,6 +8,7 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use anyhow::Context;
+use orch_dem::awake::AwakeWorkers;
 use orch_dem::case::Case;
 use orch_dem::output::{write_crossings, write_dump_custom, write_vtk_legacy, CROSSINGS_HEADER};
 use orch_dem::simulation::StageTimers;
@@ -159,6 +160,8 @@ pub fn run(case_path: &Path, log_path: &Path, threads: usize) -> anyhow::Result<
     let started = Instant::now();
     let mut stopped_by_stop_file = false;
     let outcome = pool.install(|| -> anyhow::Result<()> {
+        // The other threads poll for the next pass instead of sleeping between passes.
+        let _awake = AwakeWorkers::start();
         for _ in 0..steps {
             if let Err(unstable) = simulation.step() {
                 writeln!(log, "ERROR: {unstable}")?;

@@ -9,8 +9,12 @@
 //! the window the inserted mass is `rate × (end − start)` to within one particle's mass
 //! and each type's mass its share to within one of its particles. Positions are drawn
 //! uniformly in the region (seeded) and refused when they overlap any particle already
-//! there; a batch that cannot place its mass leaves the rest to the next one. Walls are
-//! not checked: the region must be clear of them.
+//! there. A type that finds no room (after [`INFLOW_ATTEMPTS`] draws) sits the rest of
+//! the batch out while the other types go on, and what the batch could not place is
+//! left to the next one, where the type furthest behind goes first; what the last
+//! batch cannot place is not placed ([`InflowState::asked_mass_kg`] against
+//! [`InflowState::inserted_mass_kg`] says how much). Walls are not checked: the region
+//! must be clear of them.
 
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -150,6 +154,18 @@ impl InflowState {
         self.inserted_kg.iter().sum()
     }
 
+    /// Mass the batches so far were asked to bring the inflow up to, kg:
+    /// `rate × (min(start + batches × interval, end) − start)`. It exceeds
+    /// [`InflowState::inserted_mass_kg`] by more than one particle when a batch found
+    /// no room for all of its mass (and the next batches did not make it up).
+    pub fn asked_mass_kg(&self) -> Real {
+        if self.batches == 0 {
+            return 0.0;
+        }
+        let horizon = self.next_batch_s().min(self.inflow.end_s);
+        self.inflow.mass_rate_kg_per_s * (horizon - self.inflow.start_s)
+    }
+
     /// Mass of each type inserted so far, kg.
     pub fn inserted_mass_by_type_kg(&self) -> &[Real] {
         &self.inserted_kg
@@ -196,22 +212,26 @@ impl InflowState {
             }
         }
         let mut count = 0;
+        // Types that found no room in this batch: the others go on without them.
+        let mut full = vec![false; types.len()];
         loop {
             let total: Real = self.inserted_kg.iter().sum();
             if total >= target {
                 break;
             }
-            // The type furthest behind its share (the first on a tie).
-            let kind = (0..types.len())
+            // The type furthest behind its share (the first on a tie) that still finds
+            // room.
+            let Some(kind) = (0..types.len())
+                .filter(|&k| !full[k])
                 .map(|k| (k, inflow.mass_fractions[k] * target - self.inserted_kg[k]))
-                .fold((0, Real::NEG_INFINITY), |best, (k, d)| {
-                    if d > best.1 {
-                        (k, d)
-                    } else {
-                        best
-                    }
+                .fold(None, |best: Option<(usize, Real)>, (k, d)| match best {
+                    Some((_, best_d)) if d <= best_d => best,
+                    _ => Some((k, d)),
                 })
-                .0;
+                .map(|(k, _)| k)
+            else {
+                break;
+            };
             let radius = types[kind].radius_m;
             let mut found = None;
             for _ in 0..INFLOW_ATTEMPTS {
@@ -224,7 +244,8 @@ impl InflowState {
                 }
             }
             let Some(centre) = found else {
-                break;
+                full[kind] = true;
+                continue;
             };
             grid.add(placed.len(), centre);
             placed.push((centre, radius, kind));

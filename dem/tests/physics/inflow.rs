@@ -1,8 +1,9 @@
 //! Continuous inflow: the mass fed matches rate × time, new particles never overlap,
-//! and a run with an inflow is the same on 1 and 2 threads.
+//! a type without room does not stop the others, and a run with an inflow is the same
+//! on 1 and 2 threads.
 
 use orch_dem::case::Case;
-use orch_dem::inflow::Inflow;
+use orch_dem::inflow::{Inflow, InflowState};
 use orch_dem::insert::Region;
 use orch_dem::particles::Particles;
 use orch_dem::{Simulation, Vec3};
@@ -157,4 +158,39 @@ fn an_inflow_case_parses_runs_and_names_its_bad_fields() {
             .to_string();
         assert!(message.contains(&format!("`{field}`")), "{message}");
     }
+}
+
+#[test]
+fn a_type_without_room_sits_the_batch_out_while_the_others_go_on() {
+    // A 10 mm box whose 9.8 mm spheres fit only near its centre, where a 1 mm sphere
+    // already sits: the large type finds no room, and the small one fills the batch.
+    let m = material(0.6, 0.5);
+    let types = vec![sphere(0.0049, m), sphere(0.0005, m)];
+    let mut particles = Particles::default();
+    particles.push(1, 1, &types[1], Vec3::new(0.0, 0.0, 0.035));
+    let region = Region::Box {
+        min_m: Vec3::new(-0.005, -0.005, 0.030),
+        max_m: Vec3::new(0.005, 0.005, 0.040),
+    };
+    let small_kg = types[1].mass_kg();
+    let mut inflow = InflowState::new(
+        Inflow {
+            region,
+            mass_fractions: vec![0.5, 0.5],
+            mass_rate_kg_per_s: 40.0 * small_kg / 0.01,
+            velocity_m_per_s: Vec3::zeros(),
+            start_s: 0.0,
+            end_s: 0.01,
+            interval_s: 0.01,
+            seed: 7,
+        },
+        types.len(),
+    );
+    let mut next_id = 2;
+    let placed = inflow.insert_due(0.0, &types, &mut particles, &mut next_id);
+    let by_type = inflow.inserted_mass_by_type_kg();
+    assert_eq!(by_type[0], 0.0, "no room for a large sphere");
+    assert_eq!(placed, 40, "the small ones fill the batch's mass");
+    assert!((inflow.asked_mass_kg() - 40.0 * small_kg).abs() < 1e-9 * small_kg);
+    assert!(inflow.inserted_mass_kg() >= inflow.asked_mass_kg() - 1e-9 * small_kg);
 }

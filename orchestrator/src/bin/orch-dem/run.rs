@@ -101,6 +101,48 @@ pub fn load(case_path: &Path) -> anyhow::Result<(Case, Simulation)> {
     Ok((case, simulation))
 }
 
+/// One line per inflow that has begun: the mass it placed against the mass its batches
+/// asked for, the share of each type (named `type_names`, in type order) in what it
+/// placed, and whether it fell short by more than one particle (its region had no
+/// room for the rest; the run then holds less material than the case asked for).
+fn inflow_report(simulation: &Simulation, type_names: &[&str]) -> Vec<(String, bool)> {
+    let heaviest_kg = simulation
+        .types()
+        .iter()
+        .map(|t| t.mass_kg())
+        .fold(0.0, f64::max);
+    let count = simulation.inflows().len();
+    simulation
+        .inflows()
+        .iter()
+        .enumerate()
+        .filter(|(_, inflow)| inflow.asked_mass_kg() > 0.0)
+        .map(|(k, inflow)| {
+            let (placed, asked) = (inflow.inserted_mass_kg(), inflow.asked_mass_kg());
+            let short = asked - placed > heaviest_kg;
+            let shares: Vec<String> = inflow
+                .inserted_mass_by_type_kg()
+                .iter()
+                .zip(type_names)
+                .map(|(kg, name)| format!("{name} {:.1} %", 100.0 * kg / placed.max(f64::MIN_POSITIVE)))
+                .collect();
+            let mut line = format!(
+                "Inflow {} of {count} placed {placed:.6e} kg of the {asked:.6e} kg asked ({:.1} %; by mass {})",
+                k + 1,
+                100.0 * placed / asked,
+                shares.join(", ")
+            );
+            if short {
+                line.push_str(
+                    ": its region had no room for the rest; make the region larger (or the \
+                     feed faster) or lower the mass rate",
+                );
+            }
+            (line, short)
+        })
+        .collect()
+}
+
 /// Runs the case at `case_path` on `threads` threads, writing the log to `log_path`
 /// and outputs under `post/` beside the case file.
 pub fn run(case_path: &Path, log_path: &Path, threads: usize) -> anyhow::Result<RunSummary> {
@@ -220,6 +262,13 @@ pub fn run(case_path: &Path, log_path: &Path, threads: usize) -> anyhow::Result<
         "{}",
         orch_adapters::native::LargestOverlapLine(simulation.largest_overlap_ratio())
     )?;
+    let type_names: Vec<&str> = case.types.iter().map(|t| t.name.as_str()).collect();
+    for (line, short) in inflow_report(&simulation, &type_names) {
+        writeln!(log, "{line}")?;
+        if short {
+            eprintln!("orch-dem: warning: {line}");
+        }
+    }
     if let Some(file) = stop_file.filter(|_| stopped_by_stop_file) {
         // After the loop line, where the native adapter's log reader ignores it.
         writeln!(
@@ -460,6 +509,35 @@ dump_every = 50
                 case.display()
             )
         );
+    }
+
+    #[test]
+    fn an_inflow_that_finds_no_room_for_its_mass_says_so_in_the_log() {
+        // A box with room for one 8 mm sphere at a time, asked for 0.5 kg/s over two
+        // batches (0.01 kg, fifteen spheres): it places one a batch.
+        let case = CASE
+            .replace("end_time = 0.2", "end_time = 0.02")
+            .replace("[sensor]", "[[inflow]]\nmass_rate = 0.5\nmass_fractions = [1.0]\nvelocity = [0.0, 0.0, -1.0]\nstart = 0.0\nend = 0.02\nregion = { kind = \"box\", min = [-0.005, -0.005, 0.02], max = [0.005, 0.005, 0.03] }\n\n[sensor]");
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(dir.path().join("case.toml"), case).unwrap();
+        let log_path = dir.path().join("log.native");
+        run(&dir.path().join("case.toml"), &log_path, 1).unwrap();
+        let log = std::fs::read_to_string(&log_path).unwrap();
+        let line = log
+            .lines()
+            .find(|l| l.starts_with("Inflow 1 of 1 placed "))
+            .unwrap_or_else(|| panic!("no inflow line in {log}"));
+        assert!(line.contains("of the 1.000000e-2 kg asked"), "{line}");
+        assert!(
+            line.contains("its region had no room for the rest"),
+            "{line}"
+        );
+        // Read back as the adapter reads a finished run's log.
+        let read = read_log(BufReader::new(File::open(&log_path).unwrap()), &log_path).unwrap();
+        assert_eq!(read.steps, 200);
+        // A run without an inflow has no such line.
+        let (_dir, _summary, log) = run_case(false);
+        assert!(!log.contains("Inflow"), "{log}");
     }
 
     #[test]

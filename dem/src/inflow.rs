@@ -195,9 +195,8 @@ impl InflowState {
             return 0;
         }
         self.batches += 1;
+        let target = self.asked_mass_kg();
         let inflow = &self.inflow;
-        let horizon = self.next_batch_s().min(inflow.end_s);
-        let target = inflow.mass_rate_kg_per_s * (horizon - inflow.start_s);
         let largest = types.iter().map(|t| t.radius_m).fold(0.0, Real::max);
         let (lo, hi) = inflow.region.bounds();
         let reach = Vec3::repeat(2.0 * largest);

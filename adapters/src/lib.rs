@@ -119,8 +119,23 @@ pub struct Observations {
     /// The deepest overlap of the run over the smaller radius, when the solver reports
     /// it (the native kernel does).
     pub largest_overlap_ratio: Option<f64>,
+    /// What the run's inflows placed against what they were asked for, when the solver
+    /// reports it (the native kernel does, for a case with an inflow).
+    pub inflow: Option<InflowPlaced>,
     /// Time series read from solver output other than the crossings.
     pub series: Vec<Series>,
+}
+
+/// What a run's inflows placed, summed over its inflows.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct InflowPlaced {
+    /// Mass placed, kg.
+    pub placed_kg: f64,
+    /// Mass the inflows' batches asked for, kg.
+    pub asked_kg: f64,
+    /// True when an inflow fell short by more than one particle: its region had no
+    /// room for the rest, and the bed holds less material than the case asked for.
+    pub short: bool,
 }
 
 /// What a run gives the store: named scalar responses and named series.

@@ -27,6 +27,10 @@ pub const SOLVER_THROUGHPUT: &str = "solver_particle_steps_per_s";
 /// The response holding the run's deepest overlap over the smaller radius, when the
 /// solver reports it: how close the run came to the native kernel's overlap bound.
 pub const SOLVER_LARGEST_OVERLAP: &str = "solver_largest_overlap";
+/// The response holding the mass a run's inflows placed over the mass they were asked
+/// for, when the solver reports it: below 1 by more than a particle's mass, the bed
+/// holds less material than the case asked for (the run's note says so).
+pub const SOLVER_INFLOW_PLACED: &str = "solver_inflow_placed_fraction";
 
 /// What runs for each design point of a study: its parameters and responses for
 /// validation, and render, command and results for the driver.
@@ -254,6 +258,19 @@ impl Simulation for EquipmentOnSolver {
             results
                 .responses
                 .push((SOLVER_LARGEST_OVERLAP.to_string(), ratio));
+        }
+        if let Some(inflow) = observations.inflow.filter(|i| i.asked_kg > 0.0) {
+            let fraction = inflow.placed_kg / inflow.asked_kg;
+            results
+                .responses
+                .push((SOLVER_INFLOW_PLACED.to_string(), fraction));
+            if inflow.short {
+                results.notes.push(format!(
+                    "the inflow placed {:.1} % of the {:.4e} kg asked: its region had no room for the rest, so the bed holds less material than the case asks for; make the inlet wider or its feed faster, or lower the mass rate (the hopper's `pour_diameter`, `pour_speed`, `pour_rate`); the solver's log names the inflow",
+                    100.0 * fraction,
+                    inflow.asked_kg
+                ));
+            }
         }
         Ok(results)
     }

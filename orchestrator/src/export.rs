@@ -60,11 +60,13 @@ pub fn without_round_off(value: f64) -> f64 {
 /// The unit of a response or series: what the study's equipment or stages declare,
 /// or the solver's own figures (loop time, s; throughput, particle-steps per s).
 pub fn unit_of(study: Option<&Study>, name: &str) -> Option<String> {
-    use orch_adapters::simulation::{SOLVER_LARGEST_OVERLAP, SOLVER_LOOP_TIME, SOLVER_THROUGHPUT};
+    use orch_adapters::simulation::{
+        SOLVER_INFLOW_PLACED, SOLVER_LARGEST_OVERLAP, SOLVER_LOOP_TIME, SOLVER_THROUGHPUT,
+    };
     match name {
         SOLVER_LOOP_TIME => return Some("s".into()),
         SOLVER_THROUGHPUT => return Some("1/s".into()),
-        SOLVER_LARGEST_OVERLAP => return Some("-".into()),
+        SOLVER_LARGEST_OVERLAP | SOLVER_INFLOW_PLACED => return Some("-".into()),
         _ => {}
     }
     let study = study?;

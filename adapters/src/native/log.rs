@@ -2,13 +2,15 @@
 //! (`step time_s particles kinetic_energy_J discharged_mass_kg`), then
 //! `Loop time of <s> s on <n> threads for <steps> steps with <p> particle-steps`, and
 //! `Wall impact energy of <J> J` (the sum of `½ m v_n²` over particle–wall impacts) and
-//! `Largest overlap of <ratio> of the smaller radius` (the deepest contact of the run).
+//! `Largest overlap of <ratio> of the smaller radius` (the deepest contact of the run),
+//! and for each inflow an [`InflowLine`] (`Inflow 1 of 1 placed <kg> kg of the <kg> kg
+//! asked …`).
 //! A run that stopped with an error has an `ERROR:` line and no loop line.
 
 use std::io::BufRead;
 use std::path::Path;
 
-use crate::{numbered_lines, ParseError};
+use crate::{numbered_lines, InflowPlaced, ParseError};
 
 /// What the native log says about a run.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -27,6 +29,113 @@ pub struct NativeLog {
     pub wall_impact_energy_j: Option<f64>,
     /// The deepest overlap of the run over the smaller radius (absent from older logs).
     pub largest_overlap_ratio: Option<f64>,
+    /// One line per inflow that began, in inflow order (none without an inflow, and
+    /// none in logs older than the line).
+    pub inflows: Vec<InflowLine>,
+}
+
+impl NativeLog {
+    /// What all inflows placed against what they were asked for, or `None` when the
+    /// run had no inflow line.
+    pub fn inflow_placed(&self) -> Option<InflowPlaced> {
+        (!self.inflows.is_empty()).then(|| InflowPlaced {
+            placed_kg: self.inflows.iter().map(|i| i.placed_kg).sum(),
+            asked_kg: self.inflows.iter().map(|i| i.asked_kg).sum(),
+            short: self.inflows.iter().any(|i| i.short),
+        })
+    }
+}
+
+/// What one inflow placed against what it was asked for, as the log's
+/// `Inflow <k> of <n> placed <kg> kg of the <kg> kg asked (<%> %; by mass <type> <%> %,
+/// …)` line, with `: its region had no room for the rest; …` when it fell short by
+/// more than one particle; the kernel's runner writes it and the adapter reads it,
+/// both through this type.
+#[derive(Debug, Clone, PartialEq)]
+pub struct InflowLine {
+    /// The inflow's place among the case's inflows, from 1.
+    pub number: usize,
+    /// How many inflows the case has.
+    pub count: usize,
+    /// Mass placed, kg.
+    pub placed_kg: f64,
+    /// Mass the inflow's batches asked for, kg.
+    pub asked_kg: f64,
+    /// Each type's name and its share of the mass placed, in %.
+    pub shares_by_mass_percent: Vec<(String, f64)>,
+    /// True when the inflow fell short by more than one particle: its region had no
+    /// room for the rest, and the run holds less material than the case asked for.
+    pub short: bool,
+}
+
+impl InflowLine {
+    const PREFIX: &'static str = "Inflow ";
+    const SHORT: &'static str = ": its region had no room for the rest; make the region \
+         larger (or the feed faster) or lower the mass rate";
+
+    /// The line's values, `None` when it is not an inflow line; `Some(Err)` when it
+    /// starts like one and cannot be read.
+    fn parse(line: &str) -> Option<Result<InflowLine, ()>> {
+        let rest = line.strip_prefix(Self::PREFIX)?;
+        Some(Self::parse_after_prefix(rest).ok_or(()))
+    }
+
+    fn parse_after_prefix(rest: &str) -> Option<InflowLine> {
+        let (head, tail) = rest.split_once(" asked (")?;
+        let words: Vec<&str> = head.split_whitespace().collect();
+        let [number, "of", count, "placed", placed, "kg", "of", "the", asked, "kg"] =
+            words.as_slice()
+        else {
+            return None;
+        };
+        let (shares, after) = tail.split_once(')')?;
+        let (_, by_mass) = shares.split_once("; by mass ")?;
+        let shares_by_mass_percent = by_mass
+            .split(", ")
+            .map(|share| {
+                let (name, percent) = share.strip_suffix(" %")?.rsplit_once(' ')?;
+                Some((name.to_string(), percent.parse().ok()?))
+            })
+            .collect::<Option<Vec<_>>>()?;
+        let finite = |text: &str| {
+            text.parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite() && *v >= 0.0)
+        };
+        Some(InflowLine {
+            number: number.parse().ok()?,
+            count: count.parse().ok()?,
+            placed_kg: finite(placed)?,
+            asked_kg: finite(asked)?,
+            shares_by_mass_percent,
+            short: after.starts_with(": its region had no room"),
+        })
+    }
+}
+
+impl std::fmt::Display for InflowLine {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let shares: Vec<String> = self
+            .shares_by_mass_percent
+            .iter()
+            .map(|(name, percent)| format!("{name} {percent:.1} %"))
+            .collect();
+        write!(
+            f,
+            "{}{} of {} placed {:.6e} kg of the {:.6e} kg asked ({:.1} %; by mass {})",
+            Self::PREFIX,
+            self.number,
+            self.count,
+            self.placed_kg,
+            self.asked_kg,
+            100.0 * self.placed_kg / self.asked_kg,
+            shares.join(", ")
+        )?;
+        if self.short {
+            f.write_str(Self::SHORT)?;
+        }
+        Ok(())
+    }
 }
 
 /// The log's `Largest overlap of <ratio> of the smaller radius` line, written and read
@@ -147,6 +256,11 @@ pub fn read_log<R: BufRead>(reader: R, path: &Path) -> Result<NativeLog, ParseEr
                 malformed(number, format!("cannot read the overlap line `{trimmed}`"))
             })?;
             log.largest_overlap_ratio = Some(ratio);
+        } else if let Some(inflow) = InflowLine::parse(trimmed) {
+            let inflow = inflow.map_err(|()| {
+                malformed(number, format!("cannot read the inflow line `{trimmed}`"))
+            })?;
+            log.inflows.push(inflow);
         } else if let Some(rest) = trimmed.strip_prefix("Loop time of ") {
             let line = LoopLine::parse_after_prefix(rest).ok_or_else(|| {
                 malformed(number, format!("cannot read the loop line `{trimmed}`"))

@@ -15,7 +15,7 @@ use std::path::Path;
 
 use orch_granular::{crossing_csv, Crossing};
 
-pub use log::{read_log, LargestOverlapLine, LoopLine, NativeLog, THERMO_HEADER};
+pub use log::{read_log, InflowLine, LargestOverlapLine, LoopLine, NativeLog, THERMO_HEADER};
 
 use crate::solver::{deck_as_rendered, solver_command, SolverTemplate};
 use crate::{
@@ -109,6 +109,7 @@ fn parse(_case: &Case, _sensor: &SensorPlane, run_dir: &Path) -> Result<Observat
         particle_steps: Some(log.particle_steps),
         wall_impact_energy_j: log.wall_impact_energy_j,
         largest_overlap_ratio: log.largest_overlap_ratio,
+        inflow: log.inflow_placed(),
         series: vec![Series {
             name: "kinetic_energy".to_string(),
             points: log.kinetic_energy,

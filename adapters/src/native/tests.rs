@@ -382,3 +382,95 @@ fn the_loop_line_reads_back_as_written() {
     assert_eq!(LoopLine::find_in(&format!("x\n{text}\ny\n")), Some(line));
     assert_eq!(LoopLine::find_in("Loop time of 3 s\n"), None);
 }
+
+#[test]
+fn the_inflow_line_reads_back_as_written_and_a_bad_one_is_an_error() {
+    let short = InflowLine {
+        number: 1,
+        count: 2,
+        placed_kg: 2.1e-2,
+        asked_kg: 2.7792e-2,
+        shares_by_mass_percent: vec![("coarse".into(), 79.9), ("fine sand".into(), 20.1)],
+        short: true,
+    };
+    let full = InflowLine {
+        number: 2,
+        placed_kg: 1e-3,
+        asked_kg: 1e-3,
+        short: false,
+        ..short.clone()
+    };
+    let text = format!("{LOG}{short}\n{full}\n");
+    assert!(
+        text.contains("Inflow 1 of 2 placed 2.100000e-2 kg of the 2.779200e-2 kg asked (75.6 %; by mass coarse 79.9 %, fine sand 20.1 %): its region had no room for the rest"),
+        "{text}"
+    );
+    let log = read_log(Cursor::new(text), Path::new("log.native")).unwrap();
+    assert_eq!(log.inflows, vec![short, full]);
+    let placed = log.inflow_placed().unwrap();
+    assert!((placed.placed_kg - 2.2e-2).abs() < 1e-15, "{placed:?}");
+    assert!((placed.asked_kg - 2.8792e-2).abs() < 1e-15, "{placed:?}");
+    assert!(placed.short);
+    assert_eq!(
+        read_log(Cursor::new(LOG), Path::new("log.native"))
+            .unwrap()
+            .inflow_placed(),
+        None,
+        "a run without an inflow has no such line"
+    );
+    let bad =
+        format!("{LOG}Inflow 1 of 1 placed much kg of the 1e-3 kg asked (0 %; by mass a 1 %)\n");
+    let error = read_log(Cursor::new(bad), Path::new("log.native")).unwrap_err();
+    assert!(error.to_string().contains("inflow line"), "{error}");
+}
+
+#[test]
+fn a_short_inflow_is_stored_as_its_placed_fraction_and_said_in_the_note() {
+    use crate::simulation::{Simulation, SOLVER_INFLOW_PLACED};
+    let simulation = crate::EquipmentOnSolver::new(&hopper::Hopper, &SOLVER).unwrap();
+    let case = case_with(&[]);
+    let results_of = |inflow: &InflowLine| {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::create_dir_all(dir.path().join("post")).unwrap();
+        std::fs::write(
+            dir.path().join(CROSSINGS_FILE),
+            format!("{CROSSINGS_HEADER}\n"),
+        )
+        .unwrap();
+        // Nothing discharged, as the empty crossings file says.
+        let log = LOG.replace("2.5e-4 1.2e-4", "2.5e-4 0");
+        std::fs::write(dir.path().join(LOG_FILE), format!("{log}{inflow}\n")).unwrap();
+        simulation.results(&case, dir.path()).unwrap()
+    };
+    let fraction = |results: &crate::RunResults| {
+        results
+            .responses
+            .iter()
+            .find(|(name, _)| name == SOLVER_INFLOW_PLACED)
+            .map(|&(_, v)| v)
+    };
+    let short = InflowLine {
+        number: 1,
+        count: 1,
+        placed_kg: 0.75,
+        asked_kg: 1.0,
+        shares_by_mass_percent: vec![("coarse".into(), 80.0), ("fine".into(), 20.0)],
+        short: true,
+    };
+    let results = results_of(&short);
+    assert_eq!(fraction(&results), Some(0.75));
+    let note = results.notes.join("; ");
+    assert!(
+        note.contains("the inflow placed 75.0 % of the 1.0000e0 kg asked")
+            && note.contains("`pour_diameter`"),
+        "{note}"
+    );
+    let full = InflowLine {
+        placed_kg: 1.0,
+        short: false,
+        ..short
+    };
+    let results = results_of(&full);
+    assert_eq!(fraction(&results), Some(1.0));
+    assert!(results.notes.is_empty(), "{:?}", results.notes);
+}

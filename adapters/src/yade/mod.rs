@@ -84,6 +84,7 @@ fn parse(_case: &Case, _sensor: &SensorPlane, run_dir: &Path) -> Result<Observat
         particle_steps: Some(summary.particle_steps),
         wall_impact_energy_j: None,
         largest_overlap_ratio: None,
+        inflow: None,
         series: Vec::new(),
     })
 }

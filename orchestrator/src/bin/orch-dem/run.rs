@@ -14,7 +14,7 @@ use orch_dem::output::{write_crossings, write_dump_custom, write_vtk_legacy, CRO
 use orch_dem::simulation::StageTimers;
 use orch_dem::Simulation;
 // The log format the native adapter reads.
-use orch_adapters::native::THERMO_HEADER;
+use orch_adapters::native::{InflowLine, THERMO_HEADER};
 
 /// A case file that cannot be run as written (exit status 2).
 #[derive(Debug, thiserror::Error)]
@@ -105,7 +105,7 @@ pub fn load(case_path: &Path) -> anyhow::Result<(Case, Simulation)> {
 /// asked for, the share of each type (named `type_names`, in type order) in what it
 /// placed, and whether it fell short by more than one particle (its region had no
 /// room for the rest; the run then holds less material than the case asked for).
-fn inflow_report(simulation: &Simulation, type_names: &[&str]) -> Vec<(String, bool)> {
+fn inflow_report(simulation: &Simulation, type_names: &[&str]) -> Vec<InflowLine> {
     let heaviest_kg = simulation
         .types()
         .iter()
@@ -118,27 +118,25 @@ fn inflow_report(simulation: &Simulation, type_names: &[&str]) -> Vec<(String, b
         .enumerate()
         .filter(|(_, inflow)| inflow.asked_mass_kg() > 0.0)
         .map(|(k, inflow)| {
-            let (placed, asked) = (inflow.inserted_mass_kg(), inflow.asked_mass_kg());
-            let short = asked - placed > heaviest_kg;
-            let shares: Vec<String> = inflow
-                .inserted_mass_by_type_kg()
-                .iter()
-                .zip(type_names)
-                .map(|(kg, name)| format!("{name} {:.1} %", 100.0 * kg / placed.max(f64::MIN_POSITIVE)))
-                .collect();
-            let mut line = format!(
-                "Inflow {} of {count} placed {placed:.6e} kg of the {asked:.6e} kg asked ({:.1} %; by mass {})",
-                k + 1,
-                100.0 * placed / asked,
-                shares.join(", ")
-            );
-            if short {
-                line.push_str(
-                    ": its region had no room for the rest; make the region larger (or the \
-                     feed faster) or lower the mass rate",
-                );
+            let (placed_kg, asked_kg) = (inflow.inserted_mass_kg(), inflow.asked_mass_kg());
+            InflowLine {
+                number: k + 1,
+                count,
+                placed_kg,
+                asked_kg,
+                shares_by_mass_percent: inflow
+                    .inserted_mass_by_type_kg()
+                    .iter()
+                    .zip(type_names)
+                    .map(|(kg, name)| {
+                        (
+                            name.to_string(),
+                            100.0 * kg / placed_kg.max(f64::MIN_POSITIVE),
+                        )
+                    })
+                    .collect(),
+                short: asked_kg - placed_kg > heaviest_kg,
             }
-            (line, short)
         })
         .collect()
 }
@@ -263,9 +261,9 @@ pub fn run(case_path: &Path, log_path: &Path, threads: usize) -> anyhow::Result<
         orch_adapters::native::LargestOverlapLine(simulation.largest_overlap_ratio())
     )?;
     let type_names: Vec<&str> = case.types.iter().map(|t| t.name.as_str()).collect();
-    for (line, short) in inflow_report(&simulation, &type_names) {
+    for line in inflow_report(&simulation, &type_names) {
         writeln!(log, "{line}")?;
-        if short {
+        if line.short {
             eprintln!("orch-dem: warning: {line}");
         }
     }
@@ -535,6 +533,10 @@ dump_every = 50
         // Read back as the adapter reads a finished run's log.
         let read = read_log(BufReader::new(File::open(&log_path).unwrap()), &log_path).unwrap();
         assert_eq!(read.steps, 200);
+        let placed = read.inflow_placed().unwrap();
+        assert!(placed.short, "{placed:?}");
+        assert_eq!(placed.asked_kg, 1e-2);
+        assert!(placed.placed_kg < 0.5 * placed.asked_kg, "{placed:?}");
         // A run without an inflow has no such line.
         let (_dir, _summary, log) = run_case(false);
         assert!(!log.contains("Inflow"), "{log}");

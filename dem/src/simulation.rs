@@ -136,6 +136,28 @@ pub struct StageTimers {
     pub gather_and_walls: Duration,
     /// Number of neighbour list rebuilds.
     pub rebuilds: u64,
+    /// Σ over rebuilds of the particles listed: with the next two, what a
+    /// particle-step's pair work is made of.
+    pub particles_at_rebuilds: u64,
+    /// Σ over rebuilds of the pairs the new list holds (within the two radii and the
+    /// skin).
+    pub pairs_listed_at_rebuilds: u64,
+    /// Σ over rebuilds of the pairs touching when the old list was given up.
+    pub pairs_touching_at_rebuilds: u64,
+}
+
+impl StageTimers {
+    /// Mean over rebuilds of the pairs listed per particle, and of the pairs touching
+    /// per particle; `None` before the first rebuild with particles.
+    pub fn pairs_per_particle(&self) -> Option<(f64, f64)> {
+        let particles = self.particles_at_rebuilds as f64;
+        (particles > 0.0).then(|| {
+            (
+                self.pairs_listed_at_rebuilds as f64 / particles,
+                self.pairs_touching_at_rebuilds as f64 / particles,
+            )
+        })
+    }
 }
 
 /// What a touching pair exerts on its second member when that member lies in a later
@@ -710,6 +732,7 @@ impl Simulation {
                 }
             })
             .collect();
+        let touching = self.pairs.in_contact.iter().filter(|&&t| t).count();
         let p = &self.particles;
         self.pairs = PairList::build(
             &self.grid,
@@ -737,6 +760,9 @@ impl Simulation {
         self.reference_positions = p.position_m.clone();
         self.reference_offsets = self.mesh_offsets.clone();
         self.timers.rebuilds += 1;
+        self.timers.particles_at_rebuilds += p.len() as u64;
+        self.timers.pairs_listed_at_rebuilds += self.pairs.len() as u64;
+        self.timers.pairs_touching_at_rebuilds += touching as u64;
     }
 
     /// The step's forces, then (with `Some(dt)`) its closing half kick, fused into

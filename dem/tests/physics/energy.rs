@@ -102,4 +102,7 @@ fn energy_is_conserved_to_a_millionth_over_a_hundred_thousand_steps() {
     let drift = (after - before).abs() / before;
     assert!(drift < 1e-6, "relative energy drift {drift:e}");
     assert!(sim.timers().rebuilds > 10, "the particles moved about");
+    // Eight spheres in a box have at most 28 pairs: 3.5 per sphere.
+    let (listed, touching) = sim.timers().pairs_per_particle().unwrap();
+    assert!(listed <= 3.5 && touching <= listed, "{listed} {touching}");
 }

@@ -298,8 +298,14 @@ pub fn run(case_path: &Path, log_path: &Path, threads: usize) -> anyhow::Result<
 /// Where the loop's time went, as one line.
 pub fn profile(timers: &StageTimers, total: Duration) -> String {
     let share = |d: Duration| 100.0 * d.as_secs_f64() / total.as_secs_f64().max(1e-12);
+    let pairs = timers
+        .pairs_per_particle()
+        .map(|(listed, touching)| {
+            format!("; per particle {listed:.2} pairs listed, {touching:.2} touching")
+        })
+        .unwrap_or_default();
     format!(
-        "Stage times: pair forces {:.1} %, walls, gather and closing kick {:.1} %, neighbour rebuilds {:.1} % ({} rebuilds), integration {:.1} %",
+        "Stage times: pair forces {:.1} %, walls, gather and closing kick {:.1} %, neighbour rebuilds {:.1} % ({} rebuilds{pairs}), integration {:.1} %",
         share(timers.pairs),
         share(timers.gather_and_walls),
         share(timers.neighbours),
@@ -507,6 +513,26 @@ dump_every = 50
                 case.display()
             )
         );
+    }
+
+    #[test]
+    fn the_profile_line_gives_each_stage_share_and_the_pairs_per_particle() {
+        let timers = StageTimers {
+            integrate: Duration::from_millis(100),
+            neighbours: Duration::from_millis(200),
+            pairs: Duration::from_millis(500),
+            gather_and_walls: Duration::from_millis(200),
+            rebuilds: 2,
+            particles_at_rebuilds: 2000,
+            pairs_listed_at_rebuilds: 12_000,
+            pairs_touching_at_rebuilds: 5_000,
+        };
+        assert_eq!(
+            profile(&timers, Duration::from_secs(1)),
+            "Stage times: pair forces 50.0 %, walls, gather and closing kick 20.0 %, neighbour rebuilds 20.0 % (2 rebuilds; per particle 6.00 pairs listed, 2.50 touching), integration 10.0 %"
+        );
+        let none = StageTimers::default();
+        assert!(profile(&none, Duration::from_secs(1)).contains("(0 rebuilds)"));
     }
 
     #[test]

@@ -162,15 +162,24 @@ impl CurveOrder {
         for &r in &rank_of {
             start[r as usize + 1] += 1;
         }
-        for r in 0..self.rank.len() {
-            start[r + 1] += start[r];
-        }
+        running_sum(&mut start);
         let mut sorted = vec![0u32; members.len()];
         for (&i, &r) in members.iter().zip(&rank_of) {
             sorted[start[r as usize] as usize] = i;
             start[r as usize] += 1;
         }
         sorted
+    }
+}
+
+/// Each entry replaced by the sum of it and all before it: counts kept one slot ahead
+/// of their bin become the bins' starts. The sum runs in a register, not through the
+/// previous entry in memory (a store-to-load round trip per entry).
+fn running_sum(values: &mut [u32]) {
+    let mut total = 0u32;
+    for value in values {
+        total += *value;
+        *value = total;
     }
 }
 
@@ -182,6 +191,9 @@ pub const NEW_PARTICLE: u32 = u32::MAX;
 pub struct CellBins {
     start: Vec<u32>,
     members: Vec<u32>,
+    /// The cells with at least one member, ascending: the pair search loops over
+    /// these, not over every cell of the box (most are empty in a hopper's box).
+    occupied: Vec<u32>,
 }
 
 impl CellBins {
@@ -195,16 +207,21 @@ impl CellBins {
         for &c in &cell_of {
             start[c + 1] += 1;
         }
-        for c in 0..grid.len() {
-            start[c + 1] += start[c];
-        }
+        running_sum(&mut start);
         let mut fill = start.clone();
         let mut members = vec![0u32; positions.len()];
         for (i, &c) in cell_of.iter().enumerate() {
             members[fill[c] as usize] = i as u32;
             fill[c] += 1;
         }
-        Self { start, members }
+        let occupied = (0..grid.len() as u32)
+            .filter(|&c| start[c as usize] < start[c as usize + 1])
+            .collect();
+        Self {
+            start,
+            members,
+            occupied,
+        }
     }
 
     /// Where cell `cell`'s members (their particle indices, ascending) lie in the bin
@@ -290,13 +307,12 @@ impl PairList {
         // Each pair once: a cell against itself and its 13 "forward" neighbours.
         // Folded into one vector per rayon job; the flattened order is the cell order
         // whatever the number of threads.
-        let found: Vec<Vec<(u32, u32)>> = (0..grid.len())
-            .into_par_iter()
-            .fold(Vec::new, |mut pairs, cell| {
+        let found: Vec<Vec<(u32, u32)>> = bins
+            .occupied
+            .par_iter()
+            .fold(Vec::new, |mut pairs, &cell| {
+                let cell = cell as usize;
                 let (members, xs, rs) = bin(cell);
-                if members.is_empty() {
-                    return pairs;
-                }
                 for (a, ((&i, &xi), &ri)) in members.iter().zip(xs).zip(rs).enumerate() {
                     let later = members[a + 1..].iter().zip(&xs[a + 1..]).zip(&rs[a + 1..]);
                     for ((&j, &xj), &rj) in later {
@@ -323,9 +339,7 @@ impl PairList {
         for &(i, _) in found.iter().flatten() {
             row_start[i as usize + 1] += 1;
         }
-        for i in 0..n {
-            row_start[i + 1] += row_start[i];
-        }
+        running_sum(&mut row_start);
         let mut fill = row_start.clone();
         let total = row_start[n] as usize;
         let mut partner = vec![0u32; total];
@@ -363,9 +377,7 @@ impl PairList {
         for &j in &partner {
             reverse_count[j as usize + 1] += 1;
         }
-        for j in 0..n {
-            reverse_count[j + 1] += reverse_count[j];
-        }
+        running_sum(&mut reverse_count);
         let reverse_start = reverse_count.clone();
         let mut fill = reverse_count;
         let mut reverse_pair = vec![0u32; total];

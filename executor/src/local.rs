@@ -304,7 +304,13 @@ mod tests {
             .start(&spec(dir.path(), "sleep 30"))
             .unwrap();
         tokio::time::sleep(Duration::from_millis(200)).await;
+        // After a crash the job's wrapper is no child of the resumed orch (init reaps
+        // it). Here it is this test's child, and its zombie would keep its group in
+        // being until reaped, which the blocked runtime cannot do: reap it here.
+        let pid = nix::unistd::Pid::from_raw(handle.pid as i32);
+        let reaper = std::thread::spawn(move || nix::sys::wait::waitpid(pid, None));
         assert_eq!(kill_unrecorded(dir.path()), Some(handle.pid));
+        let _ = reaper.join();
         assert!(!process::group_exists(handle.pid));
         // Nothing runs there any more: nothing to kill.
         assert_eq!(kill_unrecorded(dir.path()), None);

@@ -105,8 +105,8 @@ pub struct Case {
     /// Continuous inflows (`[[inflow]]`), fed while the run goes on.
     #[serde(default)]
     pub inflow: Vec<InflowEntry>,
-    /// Plane whose downward crossings are recorded.
-    pub sensor: Option<Plane>,
+    /// Plane whose downward crossings are recorded (from its `start`).
+    pub sensor: Option<Sensor>,
     /// Plane below which particles are removed and counted as discharged.
     pub sink: Option<Plane>,
     /// What is written, and how often.
@@ -404,6 +404,21 @@ pub enum RegionEntry {
         /// Upper corner, m.
         max: [Real; 3],
     },
+}
+
+/// `[sensor]`: a horizontal plane whose downward crossings are recorded, from `start`
+/// on: a hopper's sensor starts when its plug is removed, as the LIGGGHTS and YADE
+/// decks start theirs, so material spilled over the rim while filling (a poured
+/// stream splashes fines out of the hopper) is not counted as discharged through the
+/// outlet.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Sensor {
+    /// Height, m.
+    pub z: Real,
+    /// Time from which crossings are recorded, s (default 0).
+    #[serde(default)]
+    pub start: Real,
 }
 
 /// A horizontal plane.
@@ -1028,7 +1043,7 @@ impl Case {
         let mut simulation = Simulation::new(config, types, particles, walls)
             .map_err(|e| CaseError::Setup(e.to_string()))?;
         if let Some(sensor) = &self.sensor {
-            simulation.set_sensor_plane(sensor.z);
+            simulation.set_sensor_plane(sensor.z, sensor.start);
         }
         if let Some(sink) = &self.sink {
             simulation.set_sink_plane(sink.z);

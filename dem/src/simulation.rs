@@ -284,6 +284,8 @@ pub struct Simulation {
     time_s: Real,
     step: u64,
     sensor_z_m: Option<Real>,
+    /// Time from which the sensor records crossings, s.
+    sensor_start_s: Real,
     crossed: Vec<bool>,
     crossings: Vec<Crossing>,
     sink_z_m: Option<Real>,
@@ -414,6 +416,7 @@ impl Simulation {
             time_s: 0.0,
             step: 0,
             sensor_z_m: None,
+            sensor_start_s: 0.0,
             crossed: vec![false; n],
             crossings: Vec::new(),
             sink_z_m: None,
@@ -438,8 +441,9 @@ impl Simulation {
     }
 
     /// Records particles crossing the horizontal plane `z = z_m` downwards.
-    pub fn set_sensor_plane(&mut self, z_m: Real) {
+    pub fn set_sensor_plane(&mut self, z_m: Real, start_s: Real) {
         self.sensor_z_m = Some(z_m);
+        self.sensor_start_s = start_s;
     }
 
     /// Removes particles whose centre falls below `z = z_m` (counted as discharged).
@@ -587,6 +591,7 @@ impl Simulation {
         let reference = &self.reference_positions;
         let (crossed, leaving) = (&self.crossed, &self.leaving);
         let (sensor_z_m, sink_z_m, time) = (self.sensor_z_m, self.sink_z_m, self.time_s);
+        let sensor_start_s = self.sensor_start_s;
         position_m
             .par_chunks_mut(CHUNK)
             .zip(velocity_m_per_s.par_chunks_mut(CHUNK))
@@ -612,19 +617,24 @@ impl Simulation {
                         let z_before = x.z - dt * v.z;
                         if x.z <= plane && z_before > plane && !crossed[i] {
                             let fraction = (z_before - plane) / (z_before - x.z);
-                            let at = *x - (1.0 - fraction) * dt * *v;
-                            outcome.crossings.push((
-                                i,
-                                Crossing {
-                                    time_s: time + fraction * dt,
-                                    id: u64::from(id[i]),
-                                    particle_type: u32::from(kind[i]) + 1,
-                                    radius_m: r,
-                                    mass_kg: m,
-                                    position_m: [at.x, at.y, at.z],
-                                    velocity_m_per_s: [v.x, v.y, v.z],
-                                },
-                            ));
+                            let time_s = time + fraction * dt;
+                            // Crossings before the sensor's start are not recorded (nor
+                            // marked: the particle may cross again later).
+                            if time_s >= sensor_start_s {
+                                let at = *x - (1.0 - fraction) * dt * *v;
+                                outcome.crossings.push((
+                                    i,
+                                    Crossing {
+                                        time_s,
+                                        id: u64::from(id[i]),
+                                        particle_type: u32::from(kind[i]) + 1,
+                                        radius_m: r,
+                                        mass_kg: m,
+                                        position_m: [at.x, at.y, at.z],
+                                        velocity_m_per_s: [v.x, v.y, v.z],
+                                    },
+                                ));
+                            }
                         }
                     }
                     if sink_z_m.is_some_and(|sink| x.z < sink) && !leaving[i] {

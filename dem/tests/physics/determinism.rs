@@ -59,7 +59,7 @@ fn fall_through(threads: usize) -> (Vec<orch_dem::Crossing>, f64, usize) {
         let mut cfg = config(2e-5, m);
         cfg.gravity_m_per_s2 = Vec3::new(0.0, 0.0, -9.81);
         let mut sim = Simulation::new(cfg, types, p, Vec::new()).unwrap();
-        sim.set_sensor_plane(0.01);
+        sim.set_sensor_plane(0.01, 0.0);
         sim.set_sink_plane(0.0);
         let mut crossings = Vec::new();
         for _ in 0..6000 {

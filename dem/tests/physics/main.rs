@@ -14,6 +14,7 @@ mod incline;
 mod inflow;
 mod momentum;
 mod percolation;
+mod sensor;
 mod verification;
 mod walls;
 

@@ -292,6 +292,9 @@ pub struct Simulation {
     leaving: Vec<bool>,
     leaving_count: usize,
     removed_mass_kg: Real,
+    /// Particles and mass the sink took before the sensor's start: material spilled
+    /// while filling (over a hopper's rim), not discharge.
+    spilled: (u64, Real),
     /// What each chunk of the last drift found (scratch, kept for its allocation).
     drift_outcomes: Vec<DriftOutcome>,
     particle_steps: u64,
@@ -423,6 +426,7 @@ impl Simulation {
             leaving: vec![false; n],
             leaving_count: 0,
             removed_mass_kg: 0.0,
+            spilled: (0, 0.0),
             drift_outcomes: Vec::new(),
             particle_steps: 0,
             timers: StageTimers::default(),
@@ -515,9 +519,15 @@ impl Simulation {
         self.particles.len() - self.leaving_count
     }
 
-    /// Mass that has passed the sink, kg.
+    /// Mass that has passed the sink since the sensor's start, kg.
     pub fn discharged_mass_kg(&self) -> Real {
         self.removed_mass_kg
+    }
+
+    /// Particles and mass (kg) the sink took before the sensor's start: spilled while
+    /// filling, not counted as discharged.
+    pub fn spilled(&self) -> (u64, Real) {
+        self.spilled
     }
 
     /// Sum over steps of the particles advanced, for throughput figures.
@@ -655,7 +665,13 @@ impl Simulation {
             for i in outcome.sunk {
                 self.leaving[i] = true;
                 self.leaving_count += 1;
-                self.removed_mass_kg += self.particles.mass_kg[i];
+                let mass_kg = self.particles.mass_kg[i];
+                if self.sensor_z_m.is_some() && self.time_s < self.sensor_start_s {
+                    self.spilled.0 += 1;
+                    self.spilled.1 += mass_kg;
+                } else {
+                    self.removed_mass_kg += mass_kg;
+                }
             }
         }
         // A step's crossings in id order, whatever order the particles are in.

@@ -46,3 +46,28 @@ fn the_sensor_records_a_free_fall_at_its_time_and_nothing_before_its_start() {
     assert_eq!(late[0].0, 2);
     assert!((late[0].1 - 0.2).abs() < 2e-5, "{late:?}");
 }
+
+#[test]
+fn what_the_sink_takes_before_the_sensor_starts_is_spill_not_discharge() {
+    let m = material(0.5, 0.5);
+    let kind = sphere(0.001, m);
+    let height = |t: f64| 0.5 * GRAVITY * t * t;
+    let positions = [
+        Vec3::new(-0.02, 0.0, height(0.1)),
+        Vec3::new(0.02, 0.0, height(0.2)),
+    ];
+    let mut cfg = config(1e-5, m);
+    cfg.gravity_m_per_s2 = Vec3::new(0.0, 0.0, -GRAVITY);
+    cfg.domain_max_m = Vec3::new(0.05, 0.05, 0.25);
+    let p = particles(&kind, &positions, &[Vec3::zeros(); 2]);
+    let mass_kg = p.mass_kg[0];
+    let mut sim = Simulation::new(cfg, vec![kind], p, Vec::new()).unwrap();
+    sim.set_sensor_plane(0.0, 0.15);
+    sim.set_sink_plane(0.0);
+    for _ in 0..25_000 {
+        sim.step().unwrap();
+    }
+    assert_eq!(sim.remaining(), 0);
+    assert_eq!(sim.spilled(), (1, mass_kg));
+    assert_eq!(sim.discharged_mass_kg(), mass_kg);
+}

@@ -267,6 +267,13 @@ pub fn run(case_path: &Path, log_path: &Path, threads: usize) -> anyhow::Result<
             eprintln!("orch-dem: warning: {line}");
         }
     }
+    let (spilled, spilled_kg) = simulation.spilled();
+    if spilled > 0 {
+        writeln!(
+            log,
+            "Spilled before the sensor's start: {spilled} particles, {spilled_kg:.6e} kg (taken by the sink, not counted as discharged)"
+        )?;
+    }
     if let Some(file) = stop_file.filter(|_| stopped_by_stop_file) {
         // After the loop line, where the native adapter's log reader ignores it.
         writeln!(

@@ -444,13 +444,15 @@ impl Simulation {
         Ok(simulation)
     }
 
-    /// Records particles crossing the horizontal plane `z = z_m` downwards.
+    /// Records particles crossing the horizontal plane `z = z_m` downwards, from
+    /// `start_s` (s) on.
     pub fn set_sensor_plane(&mut self, z_m: Real, start_s: Real) {
         self.sensor_z_m = Some(z_m);
         self.sensor_start_s = start_s;
     }
 
-    /// Removes particles whose centre falls below `z = z_m` (counted as discharged).
+    /// Removes particles whose centre falls below `z = z_m`, counted as discharged
+    /// (before a sensor's start, as spilled: [`Simulation::spilled`]).
     pub fn set_sink_plane(&mut self, z_m: Real) {
         self.sink_z_m = Some(z_m);
     }

@@ -108,7 +108,7 @@ impl InflowLine {
             placed_kg: finite(placed)?,
             asked_kg: finite(asked)?,
             shares_by_mass_percent,
-            short: after.starts_with(": its region had no room"),
+            short: after.starts_with(Self::SHORT),
         })
     }
 }

@@ -124,6 +124,15 @@ impl Inflow {
     }
 }
 
+/// How far an inflow has got: the part of [`InflowState`] its [`Inflow`] does not
+/// give, which a saved state keeps so that a resumed run draws the same positions.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct InflowProgress {
+    rng: ChaCha8Rng,
+    batches: u64,
+    inserted_kg: Vec<Real>,
+}
+
 /// An inflow and how far it has got.
 #[derive(Debug, Clone)]
 pub struct InflowState {
@@ -169,6 +178,27 @@ impl InflowState {
     /// Mass of each type inserted so far, kg.
     pub fn inserted_mass_by_type_kg(&self) -> &[Real] {
         &self.inserted_kg
+    }
+
+    /// How far the inflow has got (its random stream, batches and mass placed).
+    pub fn progress(&self) -> InflowProgress {
+        InflowProgress {
+            rng: self.rng.clone(),
+            batches: self.batches,
+            inserted_kg: self.inserted_kg.clone(),
+        }
+    }
+
+    /// Takes up `progress` (from [`InflowState::progress`] of the same inflow); `false`,
+    /// and nothing changed, when it counts another number of particle types.
+    pub fn resume(&mut self, progress: InflowProgress) -> bool {
+        if progress.inserted_kg.len() != self.inserted_kg.len() {
+            return false;
+        }
+        self.rng = progress.rng;
+        self.batches = progress.batches;
+        self.inserted_kg = progress.inserted_kg;
+        true
     }
 
     fn next_batch_s(&self) -> Real {

@@ -239,7 +239,7 @@ impl CellBins {
 }
 
 /// The Verlet half list of particle pairs with their per-pair state.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone, Default, serde::Serialize, serde::Deserialize)]
 pub struct PairList {
     /// Row starts: pairs of particle `i` are `row_start[i]..row_start[i + 1]`.
     pub row_start: Vec<u32>,

@@ -10,7 +10,7 @@ use crate::material::ParticleType;
 use crate::math::{Real, Vec3};
 
 /// Every particle's state, SI units.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone, Default, serde::Serialize, serde::Deserialize)]
 pub struct Particles {
     /// Identity, unique for the whole run, from 1 (LIGGGHTS numbers atoms from 1 too).
     pub id: Vec<u32>,

@@ -258,6 +258,9 @@ fn half_kick(
     *spin += half_dt_s / (0.4 * mass_kg * radius_m * radius_m) * torque;
 }
 
+mod saved;
+pub use saved::{RestoreError, SavedState};
+
 /// A DEM simulation: particles, walls, and the scratch state of the stepper.
 #[derive(Debug)]
 pub struct Simulation {

@@ -82,7 +82,7 @@ impl MeshIndex {
 /// One wall triangle near a particle, with the triangle's plane beside it: the plane
 /// test rejects most candidates in a step, and with its data here it needs no look-up
 /// in the mesh.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct WallCandidate {
     /// Mesh index.
     pub mesh: u16,
@@ -105,7 +105,7 @@ impl WallCandidate {
 
 /// For each particle, the wall triangles within its radius plus a margin, in
 /// compressed rows.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone, Default, serde::Serialize, serde::Deserialize)]
 pub struct WallCandidates {
     start: Vec<u32>,
     entries: Vec<WallCandidate>,
@@ -167,10 +167,25 @@ impl WallCandidates {
     pub fn of(&self, i: usize) -> &[WallCandidate] {
         &self.entries[self.start[i] as usize..self.start[i + 1] as usize]
     }
+
+    /// The number of particles the rows are for, when the rows are well formed and
+    /// every entry names a triangle of `meshes`; `None` otherwise (a damaged saved
+    /// state).
+    pub(crate) fn rows_for(&self, meshes: &[WallMesh]) -> Option<usize> {
+        let ordered = self.start.first() == Some(&0)
+            && self.start.windows(2).all(|w| w[0] <= w[1])
+            && self.start.last().map(|&s| s as usize) == Some(self.entries.len());
+        let named = self.entries.iter().all(|e| {
+            meshes
+                .get(usize::from(e.mesh))
+                .is_some_and(|m| (e.triangle as usize) < m.triangle_count())
+        });
+        (ordered && named).then(|| self.start.len() - 1)
+    }
 }
 
 /// One wall contact that persists from step to step.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct WallContact {
     /// Mesh index.
     pub mesh: u16,
@@ -190,7 +205,7 @@ const NO_CONTACT: WallContact = WallContact {
 };
 
 /// The wall contacts of one particle, a fixed-capacity list.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct WallContacts {
     len: usize,
     items: [WallContact; MAX_WALL_CONTACTS],
@@ -222,7 +237,7 @@ impl WallContacts {
 /// The wall contacts of the particles that have wall candidates, one list each, in
 /// particle order. Most particles of a large bed are far from every wall; a list per
 /// particle would cost them ~400 bytes each.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone, Default, serde::Serialize, serde::Deserialize)]
 pub struct WallContactStore {
     /// Particle `i`'s list is `lists[slot_start[i]]` when `slot_start[i + 1] >
     /// slot_start[i]`, else it has none.
@@ -254,6 +269,30 @@ impl WallContactStore {
             slot_start.push(lists.len() as u32);
         }
         Self { slot_start, lists }
+    }
+
+    /// Whether the lists are those of `candidates`' particles (one for each particle
+    /// with candidates, none for the others) and each holds at most
+    /// [`MAX_WALL_CONTACTS`] contacts with meshes below `mesh_count`: a damaged saved
+    /// state fails this.
+    pub(crate) fn fits(&self, candidates: &WallCandidates, mesh_count: usize) -> bool {
+        let Some(n) = candidates.start.len().checked_sub(1) else {
+            return false;
+        };
+        self.slot_start.len() == n + 1
+            && self.slot_start.first() == Some(&0)
+            && (0..n).all(|i| {
+                let width = self.slot_start[i + 1].checked_sub(self.slot_start[i]);
+                width == Some(u32::from(!candidates.of(i).is_empty()))
+            })
+            && self.slot_start.last().map(|&s| s as usize) == Some(self.lists.len())
+            && self.lists.iter().all(|list| {
+                list.len <= MAX_WALL_CONTACTS
+                    && list
+                        .as_slice()
+                        .iter()
+                        .all(|c| usize::from(c.mesh) < mesh_count)
+            })
     }
 
     fn slot(&self, i: usize) -> Option<usize> {

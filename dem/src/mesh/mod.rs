@@ -89,7 +89,9 @@ impl Motion {
 
 /// Identity of the mesh feature a contact is on, unique within one mesh: a face by its
 /// triangle index, an edge by its edge id, a vertex by its vertex id.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize, serde::Deserialize,
+)]
 pub enum FeatureId {
     /// Interior of triangle `i`.
     Face(u32),

@@ -9,11 +9,16 @@
 //! It lives in the `orch` package so that `cargo install --path orchestrator`
 //! installs it beside `orch`.
 //!
+//! A run saves its state every ten minutes of wall time to `post/restart.orch-dem`;
+//! started again where that file lies (after a kill, a node failure or a batch system's
+//! time limit), it continues from there and ends as if it had never stopped.
+//!
 //! Exit status: 0 finished (also when the case's `stop_file` ended the run early; for
 //! `verify`: every check passed), 1 the run failed (e.g. went unstable; the log says at
 //! which step and particle) or a verification check failed, 2 bad case file or mesh.
 
 mod bench;
+mod restart;
 mod run;
 mod verify;
 
@@ -41,6 +46,11 @@ enum Command {
         /// Worker threads (the result does not depend on it).
         #[arg(long, default_value_t = 1, env = "ORCH_DEM_THREADS")]
         threads: usize,
+        /// Wall time between saves of the run's state to `post/restart.orch-dem`
+        /// (at the next log line; `0s`: at every log line). A run started where that
+        /// file lies continues from it, bit for bit.
+        #[arg(long, default_value = "10min", env = "ORCH_DEM_RESTART_EVERY")]
+        restart_every: humantime::Duration,
     },
     /// Run the same case (the hopper, or a settled bed from one packing file) on the
     /// native kernel and on LIGGGHTS and LAMMPS, on 1 and 2 cores, at one or more
@@ -62,7 +72,12 @@ enum Command {
 fn main() {
     let args = Args::parse();
     let result = match args.command {
-        Command::Run { case, log, threads } => run::run(&case, &log, threads.max(1)).map(|s| {
+        Command::Run {
+            case,
+            log,
+            threads,
+            restart_every,
+        } => run::run(&case, &log, threads.max(1), restart_every.into()).map(|s| {
             println!(
                 "orch-dem: {} steps, {:.4e} particle-steps/s, {} particles left, {:.4e} kg discharged{}",
                 s.steps,

@@ -16,6 +16,8 @@ use orch_dem::Simulation;
 // The log format the native adapter reads.
 use orch_adapters::native::{InflowLine, THERMO_HEADER};
 
+use crate::restart;
+
 /// A case file that cannot be run as written (exit status 2).
 #[derive(Debug, thiserror::Error)]
 #[error("{0}")]
@@ -142,20 +144,25 @@ fn inflow_report(simulation: &Simulation, type_names: &[&str]) -> Vec<InflowLine
 }
 
 /// Runs the case at `case_path` on `threads` threads, writing the log to `log_path`
-/// and outputs under `post/` beside the case file.
-pub fn run(case_path: &Path, log_path: &Path, threads: usize) -> anyhow::Result<RunSummary> {
+/// and outputs under `post/` beside the case file. The kernel's state is saved to a
+/// restart file (see [`restart`]) at the first log line after each `restart_every` of
+/// wall time; a run started where the restart file of the same case lies continues
+/// from it. A run that ends (finished, stopped, or unstable) removes its restart file.
+pub fn run(
+    case_path: &Path,
+    log_path: &Path,
+    threads: usize,
+    restart_every: Duration,
+) -> anyhow::Result<RunSummary> {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
         .context("cannot start the worker threads")?;
-    let mut log = BufWriter::new(
-        File::create(log_path)
-            .with_context(|| format!("cannot write the log {}", log_path.display()))?,
-    );
     let loaded = pool.install(|| load(case_path));
     let (case, mut simulation) = match loaded {
         Ok(loaded) => loaded,
         Err(error) => {
+            let mut log = create(log_path, "the log")?;
             writeln!(log, "ERROR: {error:#}")?;
             return Err(error);
         }
@@ -165,24 +172,46 @@ pub fn run(case_path: &Path, log_path: &Path, threads: usize) -> anyhow::Result<
     let stop_file = case.run.stop_file.as_ref().map(|name| case_dir.join(name));
     std::fs::create_dir_all(&post).with_context(|| format!("cannot create {}", post.display()))?;
     let crossings_path = post.join("crossings.csv");
-    let mut crossings = BufWriter::new(
-        File::create(&crossings_path)
-            .with_context(|| format!("cannot write {}", crossings_path.display()))?,
-    );
-    writeln!(crossings, "{CROSSINGS_HEADER}")?;
-
+    let restart_path = restart::path_in(&post);
+    let fingerprint = restart::fingerprint(case_path, &case)?;
+    // Lines for the end of the log, after the loop line.
+    let mut end_notes = Vec::new();
+    let continued = match restart::read(&restart_path, &fingerprint) {
+        restart::Found::Nothing => None,
+        restart::Found::SetAside(why) => {
+            end_notes.push(set_aside_note(&restart_path, &why));
+            None
+        }
+        restart::Found::Usable(header, state) => {
+            match continue_outputs(log_path, &crossings_path, &header) {
+                Err(why) => {
+                    end_notes.push(set_aside_note(&restart_path, &why));
+                    None
+                }
+                Ok((log, crossings)) => match simulation.restore(*state) {
+                    Err(e) => {
+                        end_notes.push(set_aside_note(&restart_path, &e.to_string()));
+                        None
+                    }
+                    Ok(()) => {
+                        end_notes.push(format!(
+                            "Resumed from the restart file {} at step {} (t = {:.6} s); the loop line counts the time loop of every leg, {:.3} s before this one",
+                            restart_path.display(),
+                            simulation.step_count(),
+                            simulation.time_s(),
+                            header.loop_s
+                        ));
+                        Some((header.loop_s, log, crossings))
+                    }
+                },
+            }
+        }
+    };
+    for note in &end_notes {
+        eprintln!("orch-dem: {note}");
+    }
     let dt = simulation.config().timestep_s;
     let steps = (case.run.end_time / dt).round() as u64;
-    writeln!(
-        log,
-        "orch-dem {}: case {}, {} particles of {} types, {} meshes, dt {dt:e} s, {steps} steps, {threads} threads",
-        env!("CARGO_PKG_VERSION"),
-        case_path.display(),
-        simulation.particles.len(),
-        simulation.types().len(),
-        simulation.meshes().len(),
-    )?;
-    writeln!(log, "{THERMO_HEADER}")?;
     let thermo = |log: &mut BufWriter<File>, s: &Simulation| -> std::io::Result<()> {
         writeln!(
             log,
@@ -195,17 +224,38 @@ pub fn run(case_path: &Path, log_path: &Path, threads: usize) -> anyhow::Result<
         )?;
         log.flush()
     };
-    thermo(&mut log, &simulation)?;
+    let (earlier_loop_s, mut log, mut crossings) = match continued {
+        Some(continued) => continued,
+        None => {
+            let mut log = create(log_path, "the log")?;
+            let mut crossings = create(&crossings_path, "the crossings file")?;
+            writeln!(crossings, "{CROSSINGS_HEADER}")?;
+            writeln!(
+                log,
+                "orch-dem {}: case {}, {} particles of {} types, {} meshes, dt {dt:e} s, {steps} steps, {threads} threads",
+                env!("CARGO_PKG_VERSION"),
+                case_path.display(),
+                simulation.particles.len(),
+                simulation.types().len(),
+                simulation.meshes().len(),
+            )?;
+            writeln!(log, "{THERMO_HEADER}")?;
+            thermo(&mut log, &simulation)?;
+            (0.0, log, crossings)
+        }
+    };
 
     let started = Instant::now();
+    let mut saves = RestartSaves::default();
     let mut stopped_by_stop_file = false;
     let outcome = pool.install(|| -> anyhow::Result<()> {
         // The other threads poll for the next pass instead of sleeping between passes.
         let _awake = AwakeWorkers::start();
-        for _ in 0..steps {
+        while simulation.step_count() < steps {
             if let Err(unstable) = simulation.step() {
                 writeln!(log, "ERROR: {unstable}")?;
                 log.flush()?;
+                let _ = std::fs::remove_file(&restart_path);
                 anyhow::bail!(unstable);
             }
             write_crossings(&mut crossings, &simulation.take_crossings())?;
@@ -226,12 +276,33 @@ pub fn run(case_path: &Path, log_path: &Path, threads: usize) -> anyhow::Result<
             if stop {
                 break;
             }
+            let logged = step.is_multiple_of(case.run.thermo_every.max(1));
+            if logged && saves.due(restart_every) {
+                let header = restart::Header::new(
+                    fingerprint,
+                    log.get_ref().metadata()?.len(),
+                    crossings.get_ref().metadata()?.len(),
+                    earlier_loop_s + started.elapsed().as_secs_f64(),
+                );
+                saves.save(&restart_path, &header, &simulation)?;
+            }
         }
         Ok(())
     });
-    let loop_time = started.elapsed();
+    let leg_time = started.elapsed();
+    let loop_time = Duration::from_secs_f64(earlier_loop_s) + leg_time;
     crossings.flush()?;
     outcome?;
+    // The run has ended: nothing to continue from.
+    match std::fs::remove_file(&restart_path) {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+            end_notes.push(format!(
+                "The restart file {} could not be removed: {e}",
+                restart_path.display()
+            ));
+        }
+        _ => {}
+    }
     thermo(&mut log, &simulation)?;
     let summary = RunSummary {
         loop_time,
@@ -249,7 +320,19 @@ pub fn run(case_path: &Path, log_path: &Path, threads: usize) -> anyhow::Result<
         particle_steps: summary.particle_steps as f64,
     };
     writeln!(log, "{loop_line}")?;
-    writeln!(log, "{}", profile(&summary.timers, loop_time))?;
+    writeln!(log, "{}", profile(&summary.timers, leg_time))?;
+    for note in &end_notes {
+        writeln!(log, "{note}")?;
+    }
+    if saves.count > 0 {
+        writeln!(
+            log,
+            "Restart files: {} written in {:.3} s, every {} s of wall time or more",
+            saves.count,
+            saves.time.as_secs_f64(),
+            restart_every.as_secs_f64()
+        )?;
+    }
     writeln!(
         log,
         "Wall impact energy of {:.9e} J",
@@ -300,6 +383,90 @@ pub fn run(case_path: &Path, log_path: &Path, threads: usize) -> anyhow::Result<
     )?;
     log.flush()?;
     Ok(summary)
+}
+
+/// Creates (or empties) the output file at `path`, `what` for the error.
+fn create(path: &Path, what: &str) -> anyhow::Result<BufWriter<File>> {
+    let file =
+        File::create(path).with_context(|| format!("cannot write {what} {}", path.display()))?;
+    Ok(BufWriter::new(file))
+}
+
+/// The log line for a restart file at `path` that was not continued from, and why.
+fn set_aside_note(path: &Path, why: &str) -> String {
+    format!(
+        "The restart file {} was set aside and the run started from t = 0: {why}",
+        path.display()
+    )
+}
+
+/// The log and the crossings file of a run continued from a restart file of `header`:
+/// each cut back to its length when the state was saved, open for appending. Either
+/// shorter than that (removed or cut since) is a reason not to continue.
+fn continue_outputs(
+    log_path: &Path,
+    crossings_path: &Path,
+    header: &restart::Header,
+) -> Result<(BufWriter<File>, BufWriter<File>), String> {
+    let reopen = |path: &Path, bytes: u64| -> Result<BufWriter<File>, String> {
+        let file = std::fs::OpenOptions::new()
+            .append(true)
+            .open(path)
+            .map_err(|e| format!("{} cannot be opened ({e})", path.display()))?;
+        let length = file.metadata().map_err(|e| e.to_string())?.len();
+        if length < bytes {
+            return Err(format!(
+                "{} holds {length} bytes, fewer than the {bytes} it held when the state was saved",
+                path.display()
+            ));
+        }
+        file.set_len(bytes).map_err(|e| e.to_string())?;
+        Ok(BufWriter::new(file))
+    };
+    Ok((
+        reopen(log_path, header.log_bytes)?,
+        reopen(crossings_path, header.crossings_bytes)?,
+    ))
+}
+
+/// When the run last saved its state, how often and how long saving took.
+#[derive(Debug)]
+struct RestartSaves {
+    last: Instant,
+    count: u64,
+    time: Duration,
+}
+
+impl Default for RestartSaves {
+    fn default() -> Self {
+        Self {
+            last: Instant::now(),
+            count: 0,
+            time: Duration::ZERO,
+        }
+    }
+}
+
+impl RestartSaves {
+    /// Whether `every` has passed since the start or the last save.
+    fn due(&self, every: Duration) -> bool {
+        self.last.elapsed() >= every
+    }
+
+    /// Saves `simulation`'s state under `header` to `path`.
+    fn save(
+        &mut self,
+        path: &Path,
+        header: &restart::Header,
+        simulation: &Simulation,
+    ) -> anyhow::Result<()> {
+        let started = Instant::now();
+        restart::write(path, header, &simulation.saved_state())?;
+        self.time += started.elapsed();
+        self.count += 1;
+        self.last = Instant::now();
+        Ok(())
+    }
 }
 
 /// Where the loop's time went, as one line.
@@ -412,7 +579,7 @@ dump_every = 50
             std::fs::write(dir.path().join("STOP"), "").unwrap();
         }
         let log = dir.path().join("log.native");
-        let summary = run(&case, &log, 1).unwrap();
+        let summary = run(&case, &log, 1, Duration::from_secs(600)).unwrap();
         let text = std::fs::read_to_string(&log).unwrap();
         (dir, summary, text)
     }
@@ -453,6 +620,56 @@ dump_every = 50
             assert_eq!(read.snapshots, 1);
         }
         dumps
+    }
+
+    #[test]
+    fn a_run_saves_its_state_at_log_lines_and_removes_the_restart_file_when_it_ends() {
+        let dir = tempfile::tempdir().unwrap();
+        let case = dir.path().join("case.toml");
+        std::fs::write(&case, CASE).unwrap();
+        let log_path = dir.path().join("log.native");
+        let summary = run(&case, &log_path, 1, Duration::ZERO).unwrap();
+        let log = std::fs::read_to_string(&log_path).unwrap();
+        // 2000 steps, a log line every 100: a save at each.
+        assert!(log.contains("\nRestart files: 20 written in "), "{log}");
+        assert!(!dir.path().join("post").join(restart::RESTART_FILE).exists());
+        check_outputs(dir.path(), &summary);
+    }
+
+    #[test]
+    fn a_restart_file_of_another_case_is_set_aside_and_the_run_starts_from_zero() {
+        let dir = tempfile::tempdir().unwrap();
+        let case = dir.path().join("case.toml");
+        std::fs::write(&case, CASE).unwrap();
+        let restart_file = dir.path().join("post").join(restart::RESTART_FILE);
+        let fingerprint = restart::fingerprint(&case, &Case::parse(CASE).unwrap()).unwrap();
+        // A file of this layout for another case, then one of no layout at all.
+        let (_, simulation) = load(&case).unwrap();
+        let other = restart::Header::new([7; 32], 0, 0, 1.0);
+        let reasons = [
+            "it was written for another case or input file, or by another build of orch-dem",
+            "it is not a restart file of this layout",
+        ];
+        for (k, why) in reasons.iter().enumerate() {
+            std::fs::create_dir_all(dir.path().join("post")).unwrap();
+            if k == 0 {
+                restart::write(&restart_file, &other, &simulation.saved_state()).unwrap();
+                assert_ne!(fingerprint, [7; 32]);
+            } else {
+                std::fs::write(&restart_file, b"not a restart file").unwrap();
+            }
+            let log_path = dir.path().join("log.native");
+            let summary = run(&case, &log_path, 1, Duration::from_secs(600)).unwrap();
+            let log = std::fs::read_to_string(&log_path).unwrap();
+            let note = format!(
+                "The restart file {} was set aside and the run started from t = 0: {why}",
+                restart_file.display()
+            );
+            assert!(log.contains(&note), "{log}");
+            assert_eq!(summary.steps, 2000);
+            check_outputs(dir.path(), &summary);
+            assert!(!restart_file.exists());
+        }
     }
 
     #[test]
@@ -552,7 +769,13 @@ dump_every = 50
         let dir = tempfile::tempdir().unwrap();
         std::fs::write(dir.path().join("case.toml"), case).unwrap();
         let log_path = dir.path().join("log.native");
-        run(&dir.path().join("case.toml"), &log_path, 1).unwrap();
+        run(
+            &dir.path().join("case.toml"),
+            &log_path,
+            1,
+            Duration::from_secs(600),
+        )
+        .unwrap();
         let log = std::fs::read_to_string(&log_path).unwrap();
         let line = log
             .lines()

@@ -1,0 +1,150 @@
+//! `orch-dem run` killed (SIGKILL, at no chosen step) and started again continues from
+//! its restart file and ends with the same thermo rows, crossings and dumps, byte for
+//! byte, as a run of the same case that never stopped.
+
+use std::path::Path;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use orch_adapters::hopper::{self, Hopper};
+use orch_adapters::{native, Case, EquipmentOnSolver, ResolvedParameters, Simulation};
+
+/// The hopper on the native kernel, small: 1 500 spheres poured for 0.15 s and
+/// discharged for 0.15 s under 0.5 mm, 50 Hz vibration (15 000 steps, a log line and a
+/// save every 1 000), a dump every 0.05 s.
+fn render_hopper(dir: &Path) -> String {
+    let mut parameters = ResolvedParameters::defaults(hopper::PARAMETERS);
+    for (name, value) in [
+        ("n_particles", 1500.0),
+        ("fill_time", 0.15),
+        ("discharge_time", 0.15),
+        ("amplitude", 0.0005),
+        ("frequency", 50.0),
+        ("dump_every", 2500.0),
+    ] {
+        parameters.set(name, value);
+    }
+    let case = Case {
+        parameters,
+        seed: 3,
+        text: Default::default(),
+    };
+    let simulation = EquipmentOnSolver::new(&Hopper, &native::SOLVER).unwrap();
+    simulation.render(&case, dir).unwrap();
+    simulation.deck_file()
+}
+
+fn start(dir: &Path, deck: &str) -> Child {
+    Command::new(env!("CARGO_BIN_EXE_orch-dem"))
+        .args([
+            "run",
+            deck,
+            "--log",
+            native::LOG_FILE,
+            "--restart-every",
+            "0s",
+        ])
+        .current_dir(dir)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap()
+}
+
+fn finish(child: Child) -> String {
+    let out = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(out.status.success(), "orch-dem failed: {stderr}");
+    stderr
+}
+
+/// The log's thermo rows (the header line holds the run folder's path, and the lines
+/// after the loop line the wall time); none before the log exists.
+fn thermo_rows(dir: &Path) -> Vec<String> {
+    let log = std::fs::read_to_string(dir.join(native::LOG_FILE)).unwrap_or_default();
+    log.lines()
+        .skip_while(|l| *l != native::THERMO_HEADER)
+        .take_while(|l| !l.starts_with("Loop time of "))
+        .map(str::to_string)
+        .collect()
+}
+
+/// Every file under `post/`, by name, with its bytes.
+fn outputs(dir: &Path) -> Vec<(String, Vec<u8>)> {
+    let mut files: Vec<(String, Vec<u8>)> = std::fs::read_dir(dir.join("post"))
+        .unwrap()
+        .map(|e| {
+            let e = e.unwrap();
+            let name = e.file_name().to_string_lossy().into_owned();
+            (name, std::fs::read(e.path()).unwrap())
+        })
+        .collect();
+    files.sort();
+    files
+}
+
+#[test]
+fn a_killed_run_started_again_continues_from_its_restart_file_bit_for_bit() {
+    let straight = tempfile::tempdir().unwrap();
+    let deck = render_hopper(straight.path());
+    finish(start(straight.path(), &deck));
+
+    let killed = tempfile::tempdir().unwrap();
+    render_hopper(killed.path());
+    let restart_file = killed.path().join("post/restart.orch-dem");
+    let mut child = start(killed.path(), &deck);
+    // Kill it once it is discharging (the header, t = 0 and ten more rows: step 10 000,
+    // t = 0.2 s), between two log lines, at whatever step it has reached.
+    let waited = Instant::now();
+    while thermo_rows(killed.path()).len() < 12 {
+        assert!(
+            waited.elapsed() < Duration::from_secs(300),
+            "no progress in the log"
+        );
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "it ended before the kill"
+        );
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    let rows_at_kill = thermo_rows(killed.path()).len();
+    assert!(restart_file.exists(), "no restart file after the kill");
+    assert!(rows_at_kill < thermo_rows(straight.path()).len());
+
+    let stderr = finish(start(killed.path(), &deck));
+    let log = std::fs::read_to_string(killed.path().join(native::LOG_FILE)).unwrap();
+    let resumed = log
+        .lines()
+        .find(|l| l.starts_with("Resumed from the restart file "))
+        .unwrap_or_else(|| panic!("not resumed: {log}\n{stderr}"));
+    let step: u64 = resumed
+        .split(" at step ")
+        .nth(1)
+        .and_then(|rest| rest.split_whitespace().next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no step in `{resumed}`"));
+    // The save at the last row, or at the one before when the kill fell between a
+    // row and its save.
+    assert!((9_000..15_000).contains(&step), "{resumed}");
+
+    assert_eq!(thermo_rows(killed.path()), thermo_rows(straight.path()));
+    let (ours, theirs) = (outputs(killed.path()), outputs(straight.path()));
+    let names = |files: &[(String, Vec<u8>)]| -> Vec<String> {
+        files.iter().map(|(name, _)| name.clone()).collect()
+    };
+    assert_eq!(names(&ours), names(&theirs));
+    assert!(names(&ours).iter().any(|n| n.starts_with("dump")));
+    for ((name, a), (_, b)) in ours.iter().zip(&theirs) {
+        assert!(a == b, "{name} differs after the restart");
+    }
+    // Spheres crossed the sensor before the kill (its crossings file was cut back to
+    // the save and written on) and after it.
+    let crossings =
+        String::from_utf8_lossy(&ours.iter().find(|(n, _)| n == "crossings.csv").unwrap().1)
+            .lines()
+            .count();
+    assert!(crossings > 100, "{crossings} lines of crossings");
+    assert!(!restart_file.exists(), "the restart file outlived the run");
+}

@@ -27,6 +27,12 @@ pub const STDOUT_FILE: &str = "stdout.txt";
 pub const STDERR_FILE: &str = "stderr.txt";
 /// One line per attempt start and end, kept across attempts, in the run directory.
 pub const ATTEMPTS_LOG: &str = "orch-attempts.log";
+/// A solver's restart list in the run directory: what it needs to continue where a
+/// stopped attempt left off (its restart file, the outputs written so far), one path
+/// relative to the run directory a line. While it exists a new attempt of the job
+/// keeps those paths and the solver continues instead of starting over; the solver
+/// removes it when its run ends. `orch-dem` writes one with its first restart file.
+pub const RESTART_LIST: &str = "orch-restart";
 
 /// Shell that sets `$line_buffered` to `stdbuf -oL -eL` where coreutils' `stdbuf` is
 /// installed: a job's command runs behind it, so a C or MPI solver's stdout reaches

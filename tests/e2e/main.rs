@@ -27,6 +27,7 @@ mod real_liggghts;
 mod refusals;
 mod reports;
 mod repose;
+mod restart;
 mod reuse;
 mod rounds;
 mod scripts;

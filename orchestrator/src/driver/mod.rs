@@ -30,6 +30,7 @@
 //! rendered again.
 
 mod collect;
+mod kept;
 
 use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
@@ -478,6 +479,19 @@ impl<E: Executor> Driver<'_, E> {
         let mut ready: Vec<(&JobRow, LaunchSpec)> = Vec::with_capacity(jobs.len());
         for &job in jobs {
             let run_dir = PathBuf::from(&job.run_dir);
+            // What the solver of an earlier attempt listed to continue from.
+            let kept = match kept::Kept::set_aside(&run_dir) {
+                Ok(kept) => kept,
+                Err(e) => {
+                    self.report(
+                        job,
+                        &format!(
+                            "cannot keep its earlier attempt's restart files ({e}); it starts over"
+                        ),
+                    );
+                    None
+                }
+            };
             if let Err(e) = clean_run_dir(&run_dir) {
                 self.store
                     .mark_failed(
@@ -512,7 +526,13 @@ impl<E: Executor> Driver<'_, E> {
                 }
             };
             match self.reuse(job, &identity).await? {
-                Reuse::Done => continue,
+                Reuse::Done => {
+                    if let Some(kept) = kept {
+                        // Best effort: the job is done without them.
+                        let _ = kept.discard();
+                    }
+                    continue;
+                }
                 Reuse::NoSource => {}
                 Reuse::RunAgain => {
                     // The source's files were linked in: start again from a clean
@@ -532,6 +552,15 @@ impl<E: Executor> Driver<'_, E> {
                         self.store.mark_failed(job.id, None, &message).await?;
                         continue;
                     }
+                }
+            }
+            if let Some(kept) = kept {
+                match kept.put_back(&run_dir) {
+                    Ok(()) => self.report(job, "continues from its earlier attempt's restart files"),
+                    Err(e) => self.report(
+                        job,
+                        &format!("cannot put back its earlier attempt's restart files ({e}); it starts over"),
+                    ),
                 }
             }
             self.store.mark_rendered(job.id, &identity).await?;

@@ -16,6 +16,8 @@ use orch_dem::Simulation;
 // The log format the native adapter reads.
 use orch_adapters::native::{InflowLine, THERMO_HEADER};
 
+use orch_executor::RESTART_LIST;
+
 use crate::restart;
 
 /// A case file that cannot be run as written (exit status 2).
@@ -246,7 +248,7 @@ pub fn run(
     };
 
     let started = Instant::now();
-    let mut saves = RestartSaves::default();
+    let mut saves = RestartSaves::new(restart_list(case_dir, log_path));
     let mut stopped_by_stop_file = false;
     let outcome = pool.install(|| -> anyhow::Result<()> {
         // The other threads poll for the next pass instead of sleeping between passes.
@@ -256,6 +258,7 @@ pub fn run(
                 writeln!(log, "ERROR: {unstable}")?;
                 log.flush()?;
                 let _ = std::fs::remove_file(&restart_path);
+                let _ = std::fs::remove_file(&saves.list.0);
                 anyhow::bail!(unstable);
             }
             write_crossings(&mut crossings, &simulation.take_crossings())?;
@@ -294,14 +297,13 @@ pub fn run(
     crossings.flush()?;
     outcome?;
     // The run has ended: nothing to continue from.
-    match std::fs::remove_file(&restart_path) {
-        Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
-            end_notes.push(format!(
-                "The restart file {} could not be removed: {e}",
-                restart_path.display()
-            ));
+    for file in [&restart_path, &saves.list.0] {
+        match std::fs::remove_file(file) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+                end_notes.push(format!("{} could not be removed: {e}", file.display()));
+            }
+            _ => {}
         }
-        _ => {}
     }
     thermo(&mut log, &simulation)?;
     let summary = RunSummary {
@@ -429,25 +431,37 @@ fn continue_outputs(
     ))
 }
 
-/// When the run last saved its state, how often and how long saving took.
+/// The restart list orch reads ([`RESTART_LIST`], beside the case) and its text: what
+/// a new attempt of the job must keep for this run to continue, `post/` and the log
+/// (when the log lies in the case's folder).
+fn restart_list(case_dir: &Path, log_path: &Path) -> (PathBuf, String) {
+    let mut text = String::from("post\n");
+    if let Ok(log) = log_path.strip_prefix(case_dir) {
+        text.push_str(&format!("{}\n", log.display()));
+    }
+    (case_dir.join(RESTART_LIST), text)
+}
+
+/// When the run last saved its state, how often and how long saving took, and the
+/// restart list written with the first save.
 #[derive(Debug)]
 struct RestartSaves {
     last: Instant,
     count: u64,
     time: Duration,
+    list: (PathBuf, String),
 }
 
-impl Default for RestartSaves {
-    fn default() -> Self {
+impl RestartSaves {
+    fn new(list: (PathBuf, String)) -> Self {
         Self {
             last: Instant::now(),
             count: 0,
             time: Duration::ZERO,
+            list,
         }
     }
-}
 
-impl RestartSaves {
     /// Whether `every` has passed since the start or the last save.
     fn due(&self, every: Duration) -> bool {
         self.last.elapsed() >= every
@@ -462,6 +476,11 @@ impl RestartSaves {
     ) -> anyhow::Result<()> {
         let started = Instant::now();
         restart::write(path, header, &simulation.saved_state())?;
+        if self.count == 0 {
+            let (list, text) = &self.list;
+            std::fs::write(list, text)
+                .with_context(|| format!("cannot write the restart list {}", list.display()))?;
+        }
         self.time += started.elapsed();
         self.count += 1;
         self.last = Instant::now();

@@ -1,0 +1,83 @@
+//! A native job stopped at its time limit continues from its restart file on its next
+//! attempt instead of starting over, and stores the same responses, bit for bit, as
+//! the same study run without a limit.
+
+use crate::support::{solver_lock, text, Project};
+
+/// Two vibrated hoppers of 2 000 spheres, 0.25 s of fill and 0.25 s of discharge
+/// (about 6 s each on one core): a 3 s limit stops each attempt part-way.
+fn study(time_limit: &str, retries: u32) -> String {
+    format!(
+        "name: resumed\n\
+         solver: native\n\
+         executor: {{max_parallel: 1, time_limit: {time_limit}, retries: {retries}}}\n\
+         factors:\n  - {{name: outlet_diameter, min: 0.020, max: 0.024, unit: m}}\n\
+         fixed: {{n_particles: 2000, fill_time: 0.25, discharge_time: 0.25, amplitude: 0.0005, frequency: 50}}\n\
+         design: {{type: latin_hypercube, samples: 2}}\n\
+         seed: 5\n"
+    )
+}
+
+/// Submits `study` in `project` with the kernel saving its state at every log line.
+fn submit(project: &Project, study: &str) -> serde_json::Value {
+    let file = project.write("resumed.yaml", study);
+    let out = project
+        .orch(&["submit", file.to_str().unwrap()])
+        .env("ORCH_DEM_RESTART_EVERY", "0s")
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "orch submit failed:\n{}",
+        text(&out.stderr)
+    );
+    project.status("resumed")
+}
+
+#[test]
+fn a_native_job_past_its_time_limit_continues_from_its_restart_file_on_its_next_attempt() {
+    let _lock = solver_lock();
+    let limited = Project::new();
+    let stopped = submit(&limited, &study("3s", 12));
+    let whole = Project::new();
+    let reference = submit(&whole, &study("5min", 0));
+
+    let jobs = stopped["jobs"].as_array().unwrap();
+    let reference_jobs = reference["jobs"].as_array().unwrap();
+    assert_eq!(jobs.len(), 2);
+    for (job, other) in jobs.iter().zip(reference_jobs) {
+        let name = job["name"].as_str().unwrap();
+        assert_eq!(job["state"], "succeeded", "{job}");
+        assert_eq!(other["state"], "succeeded", "{other}");
+        let attempts = job["attempts"].as_u64().unwrap();
+        assert!(attempts >= 2, "{name} finished in {attempts} attempt");
+        // The kept files are not part of what the run is: the same identity.
+        assert_eq!(job["identity"], other["identity"], "{name}");
+        let run_dir = std::path::PathBuf::from(job["run_dir"].as_str().unwrap());
+        let log = std::fs::read_to_string(run_dir.join("log.native")).unwrap();
+        assert!(
+            log.contains("Resumed from the restart file post/restart.orch-dem at step "),
+            "{name} was not resumed:\n{log}"
+        );
+        assert!(!run_dir.join("post/restart.orch-dem").exists());
+        assert!(!run_dir.join("orch-restart").exists());
+        assert!(!run_dir.with_file_name(format!("{name}.kept")).exists());
+        let (ours, theirs) = (
+            job["responses"].as_object().unwrap(),
+            other["responses"].as_object().unwrap(),
+        );
+        let measured: Vec<&String> = ours.keys().filter(|k| !k.starts_with("solver_")).collect();
+        assert!(measured.len() > 5, "{ours:?}");
+        for response in measured {
+            let (a, b) = (
+                ours[response].as_f64().unwrap(),
+                theirs[response].as_f64().unwrap(),
+            );
+            assert_eq!(
+                a.to_bits(),
+                b.to_bits(),
+                "{name} {response}: {a} resumed, {b} whole"
+            );
+        }
+    }
+}

@@ -266,7 +266,7 @@ impl Simulation for EquipmentOnSolver {
                 .push((SOLVER_INFLOW_PLACED.to_string(), fraction));
             if inflow.short {
                 results.notes.push(format!(
-                    "the inflow placed {:.1} % of the {:.4e} kg asked: its region had no room for the rest, so the bed holds less material than the case asks for; make the inlet wider or its feed faster, or lower the mass rate (the hopper's `pour_diameter`, `pour_speed`, `pour_rate`); the solver's log names the inflow",
+                    "the inflow placed {:.1} % of the {:.4e} kg asked by the end of its fill: its region had no room for the rest in time, so the bed holds less material than the case asks for (LIGGGHTS goes on inserting, into the discharge); make the inlet wider or its feed faster, or lower the mass rate (the hopper's `pour_diameter`, `pour_speed`, `pour_rate`; the chute's `inlet_length`, `inlet_speed`, `mass_rate`); the solver's log names the inflow",
                     100.0 * fraction,
                     inflow.asked_kg
                 ));

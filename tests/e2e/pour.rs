@@ -79,12 +79,15 @@ fn beds(solver: &str) -> (Vec<Sighting>, Vec<Sighting>) {
     let mut beds = Vec::new();
     for job in status["jobs"].as_array().unwrap() {
         let rate = job["factors"]["pour_rate"].as_f64().unwrap();
-        // The native kernel says what its inflow placed: all of it, here; a bed filled
-        // at random has no inflow and no such figure.
+        // Both solvers say what the pour had placed when the fill ended: all of it,
+        // here (LIGGGHTS inserts a count of particles, so its mass is the asked one
+        // only up to the random draw of types); a bed filled at random has no inflow
+        // and no such figure.
         let placed = job["responses"]["solver_inflow_placed_fraction"].as_f64();
-        if solver == "native" && rate > 0.0 {
+        if rate > 0.0 {
             let placed = placed.unwrap_or_else(|| panic!("no inflow figure in {job:#}"));
-            assert!((0.999..1.001).contains(&placed), "{placed}");
+            let within = if solver == "native" { 0.001 } else { 0.02 };
+            assert!((placed - 1.0).abs() < within, "{solver}: {placed}");
             let note = job["error"].as_str().unwrap_or_default();
             assert!(!note.contains("inflow placed"), "{note}");
         } else {

@@ -119,7 +119,7 @@ fn parse(case: &Case, sensor: &SensorPlane, run_dir: &Path) -> Result<Observatio
         particle_steps: Some(log.particle_steps),
         wall_impact_energy_j: None,
         largest_overlap_ratio: None,
-        inflow: None,
+        inflow: log.insertion.map(|i| i.inflow_placed()),
         series: vec![crate::Series {
             name: "kinetic_energy".to_string(),
             points: kinetic_energy,

@@ -387,9 +387,14 @@ pub fn report_of(id: SlurmId, job: Option<&SlurmJob>, recorded_exit: Option<i32>
                 ),
             ),
         },
-        SlurmState::Timeout | SlurmState::Deadline => {
-            stopped(StopCause::TimeLimit, "was stopped at its time limit")
-        }
+        SlurmState::Timeout | SlurmState::Deadline => match recorded_exit {
+            // The solver finished and the batch script ran to its end: the limit struck
+            // while the job was ending (Slurm checks limits every half minute or so,
+            // and labels such a job TIMEOUT all the same). Its result stands; thrown
+            // away, a retry would run the whole job again.
+            Some(0) => JobStatus::Exited(0),
+            _ => stopped(StopCause::TimeLimit, "was stopped at its time limit"),
+        },
         SlurmState::Cancelled => stopped(StopCause::Cancelled, "was cancelled outside orch"),
         SlurmState::NodeFail | SlurmState::Preempted | SlurmState::BootFail => {
             stopped(StopCause::NodeLost, "lost its node")
@@ -625,6 +630,10 @@ mod tests {
                     "{state}"
                 );
             }
+        }
+        // A solver that finished as the limit struck: its exit 0 is the outcome.
+        for state in ["TIMEOUT", "DEADLINE"] {
+            assert_eq!(status(state, "TimeLimit", Some(0)), JobStatus::Exited(0));
         }
         let JobStatus::Stopped { reason, .. } = status("TIMEOUT", "TimeLimit", None) else {
             unreachable!()

@@ -2,8 +2,9 @@
 //! `scripts/slurm up`), running the native kernel: the same responses as the local
 //! executor, Slurm's reasons for failed, timed-out and scancelled jobs, a round of fifty
 //! jobs as one job array through `kill -9` of orch mid-submission and `orch resume`
-//! (re-attached, nothing submitted twice, a failed task retried alone), and a node
-//! failure.
+//! (re-attached, nothing submitted twice, a failed task retried alone), a node
+//! failure, and native jobs killed at Slurm's time limit that continue from their
+//! restart files.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -156,6 +157,47 @@ fn a_nine_point_study_on_slurm_equals_the_same_study_run_locally() {
             "{attempts}"
         );
         assert!(run_dir.join("orch-job.sbatch").is_file());
+    }
+}
+
+/// Two 3 000-sphere vibrated hoppers at a 5 µs step (about 90 s of one core each) under
+/// Slurm's one-minute limit, the kernel saving its state every 20 s.
+const OVER_THE_LIMIT: &str = "\
+name: slurm-resumed
+solver: native
+executor: {kind: slurm, time_limit: 1min, retries: 4, poll_interval: 1s}
+factors:
+  - {name: outlet_diameter, min: 0.020, max: 0.024, unit: m}
+fixed: {n_particles: 3000, fill_time: 0.5, discharge_time: 1.0, amplitude: 0.0005, frequency: 50, timestep: 4.0e-6}
+design: {type: latin_hypercube, samples: 2}
+seed: 11
+";
+
+#[test]
+fn a_native_job_killed_at_slurms_time_limit_continues_from_its_restart_file() {
+    let Some(conf) = require_slurm() else { return };
+    let _cluster = slurm_lock();
+    let _lock = solver_lock();
+    let project = Project::on_slurm(&conf);
+    let file = project.write("resumed.yaml", OVER_THE_LIMIT);
+    let output = project
+        .orch(&["submit", file.to_str().unwrap()])
+        .env("ORCH_DEM_RESTART_EVERY", "20s")
+        .output()
+        .unwrap();
+    let stderr = text(&output.stderr);
+    assert_eq!(output.status.code(), Some(0), "{stderr}");
+    assert!(stderr.contains("TIMEOUT (TimeLimit)"), "{stderr}");
+    let status = project.status("slurm-resumed");
+    for job in status["jobs"].as_array().unwrap() {
+        assert_eq!(job["state"], "succeeded", "{job:#}");
+        assert!(job["attempts"].as_u64().unwrap() >= 2, "{job:#}");
+        let run_dir = PathBuf::from(job["run_dir"].as_str().unwrap());
+        let log = std::fs::read_to_string(run_dir.join("log.native")).unwrap();
+        assert!(
+            log.contains("Resumed from the restart file post/restart.orch-dem at step "),
+            "{log}"
+        );
     }
 }
 

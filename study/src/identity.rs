@@ -73,7 +73,7 @@ pub fn of_run(run_dir: &Path, command: &CommandSpec, conditions: &str) -> std::i
 
 /// Adds the content of the file at `path` to `hash`, 64 KiB at a time: a mesh or a
 /// program may be large, and what orch holds must not grow with it.
-fn hash_file(hash: &mut Sha256, path: &Path) -> std::io::Result<()> {
+pub fn hash_file(hash: &mut Sha256, path: &Path) -> std::io::Result<()> {
     use std::io::Read;
     let mut file = std::fs::File::open(path)?;
     let mut buffer = vec![0_u8; 64 * 1024];

@@ -16,12 +16,13 @@
 //! writing leaves the previous one whole.
 
 use std::fs::File;
-use std::io::{Read, Write};
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use orch_dem::case::Case;
 use orch_dem::simulation::SavedState;
+use orch_study::identity::hash_file;
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 
@@ -77,7 +78,9 @@ pub fn path_in(post: &Path) -> PathBuf {
 
 /// SHA-256 of the case file at `case_path`, of every file `case` names (relative to
 /// the case's folder, in the order the case names them) and of the running program:
-/// what decides whether a restart file belongs to this run.
+/// what decides whether a restart file belongs to this run. It reads the program
+/// (115 MB in a debug build), so a run takes it only when it reads or first writes a
+/// restart file.
 pub fn fingerprint(case_path: &Path, case: &Case) -> anyhow::Result<[u8; 32]> {
     let dir = case_path.parent().unwrap_or(Path::new("."));
     let mut files = vec![case_path.to_path_buf()];
@@ -86,18 +89,9 @@ pub fn fingerprint(case_path: &Path, case: &Case) -> anyhow::Result<[u8; 32]> {
     files.extend(case.air_field_file().map(|f| dir.join(f)));
     files.push(std::env::current_exe().context("cannot find the running program")?);
     let mut hash = Sha256::new();
-    let mut buffer = vec![0_u8; 64 * 1024];
     for path in files {
-        let mut file =
-            File::open(&path).with_context(|| format!("cannot read {}", path.display()))?;
         hash.update(path.file_name().unwrap_or_default().as_encoded_bytes());
-        loop {
-            let read = file.read(&mut buffer)?;
-            if read == 0 {
-                break;
-            }
-            hash.update(&buffer[..read]);
-        }
+        hash_file(&mut hash, &path).with_context(|| format!("cannot read {}", path.display()))?;
     }
     Ok(hash.finalize().into())
 }
@@ -117,19 +111,29 @@ pub fn write(path: &Path, header: &Header, state: &SavedState) -> anyhow::Result
     write().with_context(|| format!("cannot write the restart file {}", path.display()))
 }
 
-/// Reads the restart file at `path`, if any, for the run of `fingerprint`; one that
-/// cannot be read or belongs to another run is removed and reported as set aside.
-pub fn read(path: &Path, fingerprint: &[u8; 32]) -> Found {
+/// Reads the restart file at `path`, if any, for the run whose fingerprint
+/// `fingerprint` gives (asked only when there is a file); one that cannot be read or
+/// belongs to another run is removed and reported as set aside.
+pub fn read(
+    path: &Path,
+    fingerprint: impl FnOnce() -> anyhow::Result<[u8; 32]>,
+) -> anyhow::Result<Found> {
     let bytes = match std::fs::read(path) {
         Ok(bytes) => bytes,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Found::Nothing,
-        Err(e) => return set_aside(path, format!("it cannot be read ({e})")),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Found::Nothing),
+        Err(e) => return Ok(set_aside(path, format!("it cannot be read ({e})"))),
     };
-    let (header, rest) = match postcard::take_from_bytes::<Header>(&bytes) {
+    let fingerprint = fingerprint()?;
+    Ok(read_bytes(path, &bytes, &fingerprint))
+}
+
+/// [`read`] of the file's `bytes`.
+fn read_bytes(path: &Path, bytes: &[u8], fingerprint: &[u8; 32]) -> Found {
+    let (header, rest) = match postcard::take_from_bytes::<Header>(bytes) {
         Ok((header, rest)) if header.format == FORMAT => (header, rest),
         _ => return set_aside(path, "it is not a restart file of this layout".into()),
     };
-    if &header.fingerprint != fingerprint {
+    if header.fingerprint != *fingerprint {
         return set_aside(
             path,
             "it was written for another case or input file, or by another build of orch-dem".into(),

@@ -175,10 +175,14 @@ pub fn run(
     std::fs::create_dir_all(&post).with_context(|| format!("cannot create {}", post.display()))?;
     let crossings_path = post.join("crossings.csv");
     let restart_path = restart::path_in(&post);
-    let fingerprint = restart::fingerprint(case_path, &case)?;
+    // Taken once, when a restart file is read or first written: it reads the program.
+    let mut fingerprint: Option<[u8; 32]> = None;
+    let found = restart::read(&restart_path, || {
+        Ok(*fingerprint.insert(restart::fingerprint(case_path, &case)?))
+    })?;
     // Lines for the end of the log, after the loop line.
     let mut end_notes = Vec::new();
-    let continued = match restart::read(&restart_path, &fingerprint) {
+    let continued = match found {
         restart::Found::Nothing => None,
         restart::Found::SetAside(why) => {
             end_notes.push(set_aside_note(&restart_path, &why));
@@ -257,8 +261,8 @@ pub fn run(
             if let Err(unstable) = simulation.step() {
                 writeln!(log, "ERROR: {unstable}")?;
                 log.flush()?;
-                let _ = std::fs::remove_file(&restart_path);
-                let _ = std::fs::remove_file(&saves.list.0);
+                // Its end is decided: nothing to continue from.
+                let _ = remove_restart_files(&restart_path, &saves.list.0);
                 anyhow::bail!(unstable);
             }
             write_crossings(&mut crossings, &simulation.take_crossings())?;
@@ -281,6 +285,10 @@ pub fn run(
             }
             let logged = step.is_multiple_of(case.run.thermo_every.max(1));
             if logged && saves.due(restart_every) {
+                let fingerprint = match fingerprint {
+                    Some(fingerprint) => fingerprint,
+                    None => *fingerprint.insert(restart::fingerprint(case_path, &case)?),
+                };
                 let header = restart::Header::new(
                     fingerprint,
                     log.get_ref().metadata()?.len(),
@@ -297,14 +305,7 @@ pub fn run(
     crossings.flush()?;
     outcome?;
     // The run has ended: nothing to continue from.
-    for file in [&restart_path, &saves.list.0] {
-        match std::fs::remove_file(file) {
-            Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
-                end_notes.push(format!("{} could not be removed: {e}", file.display()));
-            }
-            _ => {}
-        }
-    }
+    end_notes.extend(remove_restart_files(&restart_path, &saves.list.0));
     thermo(&mut log, &simulation)?;
     let summary = RunSummary {
         loop_time,
@@ -392,6 +393,20 @@ fn create(path: &Path, what: &str) -> anyhow::Result<BufWriter<File>> {
     let file =
         File::create(path).with_context(|| format!("cannot write {what} {}", path.display()))?;
     Ok(BufWriter::new(file))
+}
+
+/// Removes the restart file and the restart list of a run whose end is decided;
+/// returns a log line for each that exists but could not be removed.
+fn remove_restart_files(restart_file: &Path, restart_list: &Path) -> Vec<String> {
+    [restart_file, restart_list]
+        .into_iter()
+        .filter_map(|file| match std::fs::remove_file(file) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+                Some(format!("{} could not be removed: {e}", file.display()))
+            }
+            _ => None,
+        })
+        .collect()
 }
 
 /// The log line for a restart file at `path` that was not continued from, and why.

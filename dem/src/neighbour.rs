@@ -238,6 +238,14 @@ impl CellBins {
     }
 }
 
+/// Whether `starts` are the row starts of compressed rows over `entries` entries: from 0,
+/// never decreasing, ending at `entries`. A saved state that fails this is damaged.
+pub(crate) fn rows_fit(starts: &[u32], entries: usize) -> bool {
+    starts.first() == Some(&0)
+        && starts.windows(2).all(|w| w[0] <= w[1])
+        && starts.last().map(|&s| s as usize) == Some(entries)
+}
+
 /// The Verlet half list of particle pairs with their per-pair state.
 #[derive(Debug, Clone, Default, serde::Serialize, serde::Deserialize)]
 pub struct PairList {

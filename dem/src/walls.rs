@@ -172,9 +172,7 @@ impl WallCandidates {
     /// every entry names a triangle of `meshes`; `None` otherwise (a damaged saved
     /// state).
     pub(crate) fn rows_for(&self, meshes: &[WallMesh]) -> Option<usize> {
-        let ordered = self.start.first() == Some(&0)
-            && self.start.windows(2).all(|w| w[0] <= w[1])
-            && self.start.last().map(|&s| s as usize) == Some(self.entries.len());
+        let ordered = crate::neighbour::rows_fit(&self.start, self.entries.len());
         let named = self.entries.iter().all(|e| {
             meshes
                 .get(usize::from(e.mesh))

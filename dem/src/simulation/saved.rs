@@ -12,7 +12,7 @@ use serde::{Deserialize, Serialize};
 use super::{Simulation, StageTimers};
 use crate::inflow::InflowProgress;
 use crate::math::{Real, Vec3};
-use crate::neighbour::PairList;
+use crate::neighbour::{rows_fit, PairList};
 use crate::particles::Particles;
 use crate::walls::{WallCandidates, WallContactStore};
 
@@ -178,16 +178,11 @@ impl Simulation {
         }
         let pairs = &state.pairs;
         let count = pairs.partner.len();
-        let rows_ordered = |starts: &[u32]| {
-            starts.first() == Some(&0)
-                && starts.windows(2).all(|w| w[0] <= w[1])
-                && starts.last().map(|&s| s as usize) == Some(count)
-        };
         if pairs.shear_m.len() != count
             || pairs.in_contact.len() != count
             || pairs.reverse_pair.len() != count
-            || !rows_ordered(&pairs.row_start)
-            || !rows_ordered(&pairs.reverse_start)
+            || !rows_fit(&pairs.row_start, count)
+            || !rows_fit(&pairs.reverse_start, count)
             || pairs.partner.iter().any(|&j| j as usize >= n)
             || pairs.reverse_pair.iter().any(|&k| k as usize >= count)
         {

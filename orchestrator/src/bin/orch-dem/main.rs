@@ -20,6 +20,7 @@
 mod bench;
 mod restart;
 mod run;
+mod signals;
 mod verify;
 
 use std::path::PathBuf;
@@ -104,6 +105,10 @@ fn main() {
             }),
     };
     if let Err(error) = result {
+        if let Some(stopped) = error.downcast_ref::<run::StoppedBySignal>() {
+            eprintln!("orch-dem: {stopped}");
+            std::process::exit(stopped.signal.exit_status());
+        }
         eprintln!("orch-dem: error: {error:#}");
         let code = if error.downcast_ref::<run::BadCase>().is_some() {
             2

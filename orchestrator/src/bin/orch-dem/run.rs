@@ -19,11 +19,31 @@ use orch_adapters::native::{InflowLine, THERMO_HEADER};
 use orch_executor::RESTART_LIST;
 
 use crate::restart;
+use crate::signals::{StopSignal, StopSignals};
 
 /// A case file that cannot be run as written (exit status 2).
 #[derive(Debug, thiserror::Error)]
 #[error("{0}")]
 pub struct BadCase(pub String);
+
+/// A run that a stop signal ended after saving its state (exit status 128 + the
+/// signal's number, see [`signals`](crate::signals)).
+#[derive(Debug, thiserror::Error)]
+#[error(
+    "Stopped by {} at step {step} (t = {time_s:.6} s), its state saved in {}: run the same case again to continue from there",
+    .signal.name(),
+    .restart_file.display()
+)]
+pub struct StoppedBySignal {
+    /// The signal.
+    pub signal: StopSignal,
+    /// The last step taken.
+    pub step: u64,
+    /// Simulated time at that step, s.
+    pub time_s: f64,
+    /// The restart file holding the state at that step.
+    pub restart_file: PathBuf,
+}
 
 /// What a finished run measured.
 #[derive(Debug, Clone)]
@@ -180,6 +200,7 @@ pub fn run(
     let found = restart::read(&restart_path, || {
         Ok(*fingerprint.insert(restart::fingerprint(case_path, &case)?))
     })?;
+
     // Lines for the end of the log, after the loop line.
     let mut end_notes = Vec::new();
     let continued = match found {
@@ -252,7 +273,9 @@ pub fn run(
     };
 
     let started = Instant::now();
-    let mut saves = RestartSaves::new(restart_list(case_dir, log_path));
+    let mut saves = RestartSaves::new(restart_list(case_dir, log_path), fingerprint);
+    let fingerprint = || restart::fingerprint(case_path, &case);
+    let signals = StopSignals::watch().context("cannot watch for SIGTERM and SIGINT")?;
     let mut stopped_by_stop_file = false;
     let outcome = pool.install(|| -> anyhow::Result<()> {
         // The other threads poll for the next pass instead of sleeping between passes.
@@ -275,6 +298,27 @@ pub fn run(
                     step < steps && stop_file.as_ref().is_some_and(|file| file.exists());
             }
             write_snapshots(&case, &simulation, &post)?;
+            if let Some(signal) = signals.received().filter(|_| step < steps) {
+                let loop_s = earlier_loop_s + started.elapsed().as_secs_f64();
+                saves.save(
+                    &restart_path,
+                    fingerprint,
+                    &mut log,
+                    &mut crossings,
+                    loop_s,
+                    &simulation,
+                )?;
+                let stopped = StoppedBySignal {
+                    signal,
+                    step,
+                    time_s: simulation.time_s(),
+                    restart_file: restart_path.clone(),
+                };
+                // After the save: a run continued from it cuts this line off again.
+                writeln!(log, "{stopped}")?;
+                log.flush()?;
+                return Err(stopped.into());
+            }
             let stop = stopped_by_stop_file
                 || case.run.stop_when_at_most.is_some_and(|at_most| {
                     simulation.time_s() >= case.run.stop_check_after
@@ -285,17 +329,15 @@ pub fn run(
             }
             let logged = step.is_multiple_of(case.run.thermo_every.max(1));
             if logged && saves.due(restart_every) {
-                let fingerprint = match fingerprint {
-                    Some(fingerprint) => fingerprint,
-                    None => *fingerprint.insert(restart::fingerprint(case_path, &case)?),
-                };
-                let header = restart::Header::new(
+                let loop_s = earlier_loop_s + started.elapsed().as_secs_f64();
+                saves.save(
+                    &restart_path,
                     fingerprint,
-                    log.get_ref().metadata()?.len(),
-                    crossings.get_ref().metadata()?.len(),
-                    earlier_loop_s + started.elapsed().as_secs_f64(),
-                );
-                saves.save(&restart_path, &header, &simulation)?;
+                    &mut log,
+                    &mut crossings,
+                    loop_s,
+                    &simulation,
+                )?;
             }
         }
         Ok(())
@@ -457,23 +499,26 @@ fn restart_list(case_dir: &Path, log_path: &Path) -> (PathBuf, String) {
     (case_dir.join(RESTART_LIST), text)
 }
 
-/// When the run last saved its state, how often and how long saving took, and the
-/// restart list written with the first save.
+/// When the run last saved its state, how often and how long saving took, the
+/// restart list written with the first save, and the fingerprint of the case and
+/// program once taken.
 #[derive(Debug)]
 struct RestartSaves {
     last: Instant,
     count: u64,
     time: Duration,
     list: (PathBuf, String),
+    fingerprint: Option<[u8; 32]>,
 }
 
 impl RestartSaves {
-    fn new(list: (PathBuf, String)) -> Self {
+    fn new(list: (PathBuf, String), fingerprint: Option<[u8; 32]>) -> Self {
         Self {
             last: Instant::now(),
             count: 0,
             time: Duration::ZERO,
             list,
+            fingerprint,
         }
     }
 
@@ -482,15 +527,33 @@ impl RestartSaves {
         self.last.elapsed() >= every
     }
 
-    /// Saves `simulation`'s state under `header` to `path`.
+    /// Saves `simulation`'s state to `path`, with the case and program's fingerprint
+    /// (taken with `fingerprint` at the first save if not known), the lengths of the log
+    /// and the crossings file (flushed first) and the time loop's wall time so far,
+    /// `loop_s`.
     fn save(
         &mut self,
         path: &Path,
-        header: &restart::Header,
+        fingerprint: impl FnOnce() -> anyhow::Result<[u8; 32]>,
+        log: &mut BufWriter<File>,
+        crossings: &mut BufWriter<File>,
+        loop_s: f64,
         simulation: &Simulation,
     ) -> anyhow::Result<()> {
         let started = Instant::now();
-        restart::write(path, header, &simulation.saved_state())?;
+        log.flush()?;
+        crossings.flush()?;
+        let fingerprint = match self.fingerprint {
+            Some(fingerprint) => fingerprint,
+            None => *self.fingerprint.insert(fingerprint()?),
+        };
+        let header = restart::Header::new(
+            fingerprint,
+            log.get_ref().metadata()?.len(),
+            crossings.get_ref().metadata()?.len(),
+            loop_s,
+        );
+        restart::write(path, &header, &simulation.saved_state())?;
         if self.count == 0 {
             let (list, text) = &self.list;
             std::fs::write(list, text)

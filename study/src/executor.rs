@@ -72,6 +72,7 @@ impl Checker<'_> {
                     Some(n) => n,
                     None => orch_executor::slurm::DEFAULT_MAX_SUBMITTED,
                 };
+                self.check_cpus_per_task(executor, simulation)?;
                 (max_submitted, Some(self.slurm_settings(executor)?))
             }
         };
@@ -84,6 +85,45 @@ impl Checker<'_> {
             cores_per_job: per_job,
             core_budget: (executor.kind == ExecutorKind::Local).then_some(cores),
         })
+    }
+
+    /// `cpus_per_task` of a built-in solver run as one process (the native kernel and
+    /// YADE on `cores_per_job` threads, LIGGGHTS on one rank) must be its threads: more
+    /// CPUs would sit idle and still be charged, fewer would be shared by its threads. A
+    /// user's own deck and MPI ranks (which may be given several CPUs each, for memory
+    /// bandwidth) keep the override.
+    fn check_cpus_per_task(
+        &self,
+        executor: &ExecutorFile,
+        simulation: &dyn Simulation,
+    ) -> Result<(), StudyError> {
+        let command = simulation.command();
+        let threads = command.cores.max(1);
+        let Some(cpus) = executor.cpus_per_task.map(|c| c as usize) else {
+            return Ok(());
+        };
+        if command.mpi
+            || cpus == threads
+            || cpus == 0
+            || simulation.equipment_name() == orch_adapters::custom::EQUIPMENT
+        {
+            return Ok(());
+        }
+        let solver = simulation.solver_name();
+        let what = if cpus > threads {
+            format!(
+                "{} of them would sit idle and still be charged",
+                cpus - threads
+            )
+        } else {
+            "its threads would share them".to_string()
+        };
+        Err(self.error(
+            "executor.cpus_per_task",
+            format!(
+                "{cpus} CPUs per job, but the {solver} solver runs {threads} thread(s) (cores_per_job: {threads}): {what}; set cores_per_job: {cpus} to run it on {cpus} threads, and leave cpus_per_task out (it follows cores_per_job)"
+            ),
+        ))
     }
 
     /// A local study naming Slurm options is a mistake worth telling.

@@ -204,7 +204,7 @@ fn objectives_name_their_responses_and_need_one_form() {
 fn a_slurm_executor_takes_its_submission_options() {
     let text = VALID.replace(
         "executor:\n  max_parallel: 2\n",
-        "executor:\n  kind: slurm\n  partition: debug\n  cpus_per_task: 2\n  mem: 2G\n  account: granular\n  qos: short\n  extra_sbatch: [--constraint=avx2]\n  max_submitted: 40\n  poll_interval: 2s\n",
+        "executor:\n  kind: slurm\n  cores_per_job: 2\n  partition: debug\n  cpus_per_task: 2\n  mem: 2G\n  account: granular\n  qos: short\n  extra_sbatch: [--constraint=avx2]\n  max_submitted: 40\n  poll_interval: 2s\n",
     );
     let study = load(&text).unwrap();
     assert_eq!(study.executor.kind, ExecutorKind::Slurm);
@@ -248,6 +248,42 @@ fn cores_per_job_sets_the_solver_command_and_the_default_parallelism() {
     let study = load(&text).unwrap();
     assert_eq!(study.executor.core_budget, None);
     assert_eq!(study.simulation.command().cores, 4);
+}
+
+#[test]
+fn slurm_cpus_per_task_of_a_single_process_must_be_its_threads() {
+    let native = |executor: &str| {
+        VALID
+            .replace("solver: liggghts\n", "solver: native\n")
+            .replace("  max_parallel: 2\n", &format!("  kind: slurm\n{executor}"))
+    };
+    // Eight CPUs, one thread: the mistake of the thesis-scale files before this check.
+    let idle = error(&native("  cpus_per_task: 8\n"));
+    assert!(
+        idle.contains(
+            "executor.cpus_per_task: 8 CPUs per job, but the native solver runs 1 thread(s) (cores_per_job: 1): 7 of them would sit idle and still be charged; set cores_per_job: 8"
+        ),
+        "{idle}"
+    );
+    let shared = error(&native("  cores_per_job: 4\n  cpus_per_task: 2\n"));
+    assert!(shared.contains("its threads would share them"), "{shared}");
+    let matched = load(&native("  cores_per_job: 4\n  cpus_per_task: 4\n")).unwrap();
+    assert_eq!(matched.executor.slurm.unwrap().cpus_per_task, Some(4));
+    assert_eq!(matched.simulation.command().cores, 4);
+    // MPI ranks may have several CPUs each (memory bandwidth).
+    let liggghts = VALID.replace(
+        "  max_parallel: 2\n",
+        "  kind: slurm\n  cores_per_job: 2\n  cpus_per_task: 2\n",
+    );
+    assert_eq!(
+        load(&liggghts)
+            .unwrap()
+            .executor
+            .slurm
+            .unwrap()
+            .cpus_per_task,
+        Some(2)
+    );
 }
 
 #[test]

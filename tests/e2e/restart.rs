@@ -82,3 +82,80 @@ fn a_native_job_past_its_time_limit_continues_from_its_restart_file_on_its_next_
         }
     }
 }
+
+/// The thermo rows in `run_dir`'s native log so far.
+fn thermo_rows(run_dir: &std::path::Path) -> usize {
+    std::fs::read_to_string(run_dir.join("log.native"))
+        .unwrap_or_default()
+        .lines()
+        .filter(|l| {
+            l.split_whitespace()
+                .next()
+                .is_some_and(|w| w.parse::<u64>().is_ok())
+        })
+        .count()
+}
+
+#[test]
+fn a_native_job_cancelled_from_another_shell_saves_its_state_and_resume_continues_it() {
+    let _lock = solver_lock();
+    let project = Project::new();
+    let file = project.write("resumed.yaml", &study("5min", 0));
+    let mut orch = project
+        .orch(&["submit", file.to_str().unwrap()])
+        .env("ORCH_DEM_RESTART_EVERY", "1h")
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    // Cancel once the first job has logged a few rows, early in its run.
+    let waited = std::time::Instant::now();
+    let run_dir = loop {
+        let stored = project.project_dir().join("orch.db").exists();
+        let running = stored
+            .then(|| project.run_dirs("resumed"))
+            .unwrap_or_default()
+            .into_iter()
+            .find(|dir| thermo_rows(dir) >= 5);
+        if let Some(dir) = running {
+            break dir;
+        }
+        assert!(
+            waited.elapsed() < std::time::Duration::from_secs(120),
+            "no job got going"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    };
+    let cancel = project.run(&["cancel", "resumed"]);
+    assert!(cancel.status.success(), "{}", text(&cancel.stderr));
+    assert!(
+        text(&cancel.stderr).contains("1 running solvers stopped"),
+        "{}",
+        text(&cancel.stderr)
+    );
+    orch.wait().unwrap();
+    let log = std::fs::read_to_string(run_dir.join("log.native")).unwrap();
+    assert!(
+        log.lines()
+            .last()
+            .is_some_and(|l| l.starts_with("Stopped by SIGTERM at step ")),
+        "{log}"
+    );
+    assert!(run_dir.join("post/restart.orch-dem").exists());
+
+    let resumed = project
+        .orch(&["resume", "resumed"])
+        .env("ORCH_DEM_RESTART_EVERY", "1h")
+        .output()
+        .unwrap();
+    assert!(resumed.status.success(), "{}", text(&resumed.stderr));
+    let status = project.status("resumed");
+    for job in status["jobs"].as_array().unwrap() {
+        assert_eq!(job["state"], "succeeded", "{job}");
+    }
+    let log = std::fs::read_to_string(run_dir.join("log.native")).unwrap();
+    assert!(
+        log.contains("Resumed from the restart file post/restart.orch-dem at step "),
+        "not resumed:\n{log}"
+    );
+}

@@ -1000,14 +1000,13 @@ async fn cancel(project_dir: Option<&Path>, name: &str) -> anyhow::Result<i32> {
             format!("{} Slurm jobs cancelled with scancel", handles.len())
         }
         None => {
-            let mut killed = 0;
-            for handle in handles.iter().filter_map(|h| ProcessHandle::parse(h)) {
-                if handle.is_alive() {
-                    process::signal_group(handle.pid, nix::sys::signal::Signal::SIGKILL);
-                    killed += 1;
-                }
-            }
-            format!("{killed} running solvers killed")
+            let running: Vec<ProcessHandle> = handles
+                .iter()
+                .filter_map(|h| ProcessHandle::parse(h))
+                .filter(|handle| handle.is_alive())
+                .collect();
+            stop_local_solvers(&running).await;
+            format!("{} running solvers stopped", running.len())
         }
     };
     let mut cancelled = 0;
@@ -1023,6 +1022,27 @@ async fn cancel(project_dir: Option<&Path>, name: &str) -> anyhow::Result<i32> {
     }
     errln!("orch: study `{name}` cancelled: {cancelled} jobs cancelled, {stopped}; `orch resume {name}` runs them again");
     Ok(exit_codes::SUCCESS)
+}
+
+/// Stops local solvers as the local executor does: SIGTERM to each one's process group
+/// (the native kernel then saves its state, so `orch resume` continues the run), SIGKILL
+/// to the groups still alive after [`TERMINATION_GRACE`](crate::executor::local::TERMINATION_GRACE).
+async fn stop_local_solvers(running: &[ProcessHandle]) {
+    use nix::sys::signal::Signal;
+    for handle in running {
+        process::signal_group(handle.pid, Signal::SIGTERM);
+    }
+    let deadline = std::time::Instant::now() + crate::executor::local::TERMINATION_GRACE;
+    while running.iter().any(|h| process::group_exists(h.pid))
+        && std::time::Instant::now() < deadline
+    {
+        tokio::time::sleep(std::time::Duration::from_millis(50)).await;
+    }
+    for handle in running {
+        if process::group_exists(handle.pid) {
+            process::signal_group(handle.pid, Signal::SIGKILL);
+        }
+    }
 }
 
 /// Claims the study for this process, then puts its cancelled (and with

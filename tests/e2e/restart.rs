@@ -112,11 +112,12 @@ fn a_native_job_cancelled_from_another_shell_saves_its_state_and_resume_continue
     let waited = std::time::Instant::now();
     let run_dir = loop {
         let stored = project.project_dir().join("orch.db").exists();
-        let running = stored
-            .then(|| project.run_dirs("resumed"))
-            .unwrap_or_default()
-            .into_iter()
-            .find(|dir| thermo_rows(dir) >= 5);
+        let dirs = if stored {
+            project.run_dirs("resumed")
+        } else {
+            Vec::new()
+        };
+        let running = dirs.into_iter().find(|dir| thermo_rows(dir) >= 5);
         if let Some(dir) = running {
             break dir;
         }

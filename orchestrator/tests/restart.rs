@@ -142,14 +142,20 @@ fn assert_same_run(ours: &Path, theirs: &Path) {
     assert!(crossings > 100, "{crossings} lines of crossings");
 }
 
-#[test]
-fn a_killed_run_started_again_continues_from_its_restart_file_bit_for_bit() {
+/// The small hopper run whole in one folder, the same case rendered afresh in another,
+/// and the case file's name.
+fn straight_run_and_fresh_copy() -> (tempfile::TempDir, tempfile::TempDir, String) {
     let straight = tempfile::tempdir().unwrap();
     let deck = render_hopper(straight.path());
     finish(start(straight.path(), &deck));
+    let copy = tempfile::tempdir().unwrap();
+    render_hopper(copy.path());
+    (straight, copy, deck)
+}
 
-    let killed = tempfile::tempdir().unwrap();
-    render_hopper(killed.path());
+#[test]
+fn a_killed_run_started_again_continues_from_its_restart_file_bit_for_bit() {
+    let (straight, killed, deck) = straight_run_and_fresh_copy();
     let restart_file = killed.path().join("post/restart.orch-dem");
     let mut child = start(killed.path(), &deck);
     // Kill it once it is discharging (the header, t = 0 and ten more rows: step 10 000,
@@ -174,12 +180,7 @@ fn a_killed_run_started_again_continues_from_its_restart_file_bit_for_bit() {
 
 #[test]
 fn a_run_stopped_by_sigterm_saves_the_step_it_is_in_and_continues_from_it_bit_for_bit() {
-    let straight = tempfile::tempdir().unwrap();
-    let deck = render_hopper(straight.path());
-    finish(start(straight.path(), &deck));
-
-    let stopped = tempfile::tempdir().unwrap();
-    render_hopper(stopped.path());
+    let (straight, stopped, deck) = straight_run_and_fresh_copy();
     let restart_file = stopped.path().join("post/restart.orch-dem");
     // No save of its own in the run: the only one is the signal's.
     let mut child = start_saving_every(stopped.path(), &deck, "1h");

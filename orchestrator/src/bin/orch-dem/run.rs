@@ -298,7 +298,18 @@ pub fn run(
                     step < steps && stop_file.as_ref().is_some_and(|file| file.exists());
             }
             write_snapshots(&case, &simulation, &post)?;
-            if let Some(signal) = signals.received().filter(|_| step < steps) {
+            let stop = stopped_by_stop_file
+                || case.run.stop_when_at_most.is_some_and(|at_most| {
+                    simulation.time_s() >= case.run.stop_check_after
+                        && simulation.remaining() <= at_most
+                });
+            if stop {
+                break;
+            }
+            // A stop signal saves at this step; otherwise a save is due at a log line.
+            let signal = signals.received().filter(|_| step < steps);
+            let logged = step.is_multiple_of(case.run.thermo_every.max(1));
+            if signal.is_some() || (logged && saves.due(restart_every)) {
                 let loop_s = earlier_loop_s + started.elapsed().as_secs_f64();
                 saves.save(
                     &restart_path,
@@ -308,6 +319,8 @@ pub fn run(
                     loop_s,
                     &simulation,
                 )?;
+            }
+            if let Some(signal) = signal {
                 let stopped = StoppedBySignal {
                     signal,
                     step,
@@ -318,26 +331,6 @@ pub fn run(
                 writeln!(log, "{stopped}")?;
                 log.flush()?;
                 return Err(stopped.into());
-            }
-            let stop = stopped_by_stop_file
-                || case.run.stop_when_at_most.is_some_and(|at_most| {
-                    simulation.time_s() >= case.run.stop_check_after
-                        && simulation.remaining() <= at_most
-                });
-            if stop {
-                break;
-            }
-            let logged = step.is_multiple_of(case.run.thermo_every.max(1));
-            if logged && saves.due(restart_every) {
-                let loop_s = earlier_loop_s + started.elapsed().as_secs_f64();
-                saves.save(
-                    &restart_path,
-                    fingerprint,
-                    &mut log,
-                    &mut crossings,
-                    loop_s,
-                    &simulation,
-                )?;
             }
         }
         Ok(())

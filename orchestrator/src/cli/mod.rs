@@ -14,7 +14,7 @@ use clap::{Parser, Subcommand};
 use crate::catalogue;
 use crate::driver::{self, Ending};
 use crate::executor::process::{self, ProcessHandle};
-use crate::executor::{Executor, SlurmExecutor};
+use crate::executor::{Executor, LocalExecutor, SlurmExecutor};
 use crate::exit_codes;
 use crate::output::{errln, out, outln};
 use crate::project;
@@ -1000,12 +1000,21 @@ async fn cancel(project_dir: Option<&Path>, name: &str) -> anyhow::Result<i32> {
             format!("{} Slurm jobs cancelled with scancel", handles.len())
         }
         None => {
-            let running: Vec<ProcessHandle> = handles
+            let running: Vec<&str> = handles
                 .iter()
-                .filter_map(|h| ProcessHandle::parse(h))
-                .filter(|handle| handle.is_alive())
+                .copied()
+                .filter(|h| ProcessHandle::parse(h).is_some_and(|h| h.is_alive()))
                 .collect();
-            stop_local_solvers(&running).await;
+            // As the driver stops them: SIGTERM (the native kernel then saves its state,
+            // so `orch resume` continues the run), SIGKILL after the grace.
+            let mut executor = LocalExecutor::new();
+            executor.terminate(&running).await;
+            let deadline = std::time::Instant::now()
+                + crate::executor::local::TERMINATION_GRACE
+                + std::time::Duration::from_secs(2);
+            while executor.tidy() > 0 && std::time::Instant::now() < deadline {
+                tokio::time::sleep(std::time::Duration::from_millis(50)).await;
+            }
             format!("{} running solvers stopped", running.len())
         }
     };
@@ -1022,27 +1031,6 @@ async fn cancel(project_dir: Option<&Path>, name: &str) -> anyhow::Result<i32> {
     }
     errln!("orch: study `{name}` cancelled: {cancelled} jobs cancelled, {stopped}; `orch resume {name}` runs them again");
     Ok(exit_codes::SUCCESS)
-}
-
-/// Stops local solvers as the local executor does: SIGTERM to each one's process group
-/// (the native kernel then saves its state, so `orch resume` continues the run), SIGKILL
-/// to the groups still alive after [`TERMINATION_GRACE`](crate::executor::local::TERMINATION_GRACE).
-async fn stop_local_solvers(running: &[ProcessHandle]) {
-    use nix::sys::signal::Signal;
-    for handle in running {
-        process::signal_group(handle.pid, Signal::SIGTERM);
-    }
-    let deadline = std::time::Instant::now() + crate::executor::local::TERMINATION_GRACE;
-    while running.iter().any(|h| process::group_exists(h.pid))
-        && std::time::Instant::now() < deadline
-    {
-        tokio::time::sleep(std::time::Duration::from_millis(50)).await;
-    }
-    for handle in running {
-        if process::group_exists(handle.pid) {
-            process::signal_group(handle.pid, Signal::SIGKILL);
-        }
-    }
 }
 
 /// Claims the study for this process, then puts its cancelled (and with

@@ -111,9 +111,10 @@ fn a_native_job_cancelled_from_another_shell_saves_its_state_and_resume_continue
     // Cancel once the first job has logged a few rows, early in its run.
     let waited = std::time::Instant::now();
     let run_dir = loop {
+        // The store's file exists before its tables: until they do, no job has started.
         let stored = project.project_dir().join("orch.db").exists();
         let dirs = if stored {
-            project.run_dirs("resumed")
+            project.try_run_dirs("resumed").unwrap_or_default()
         } else {
             Vec::new()
         };

@@ -256,16 +256,28 @@ impl Project {
 
     /// The run directories of the jobs of `study`, in job order.
     pub fn run_dirs(&self, study: &str) -> Vec<PathBuf> {
-        self.query(&format!(
+        self.try_run_dirs(study).unwrap()
+    }
+
+    /// The run directories of a study's jobs, or the store's error: for polling a
+    /// store that another process is still creating (its file exists before its tables).
+    pub fn try_run_dirs(&self, study: &str) -> Result<Vec<PathBuf>, sqlx::Error> {
+        Ok(self
+            .try_query(&format!(
             "SELECT j.run_dir FROM jobs j JOIN studies s ON s.id = j.study_id WHERE s.name = '{study}' ORDER BY j.id"
-        ))
+        ))?
         .into_iter()
         .map(|row| PathBuf::from(&row[0]))
-        .collect()
+        .collect())
     }
 
     /// Rows of a query against the project's store.
     pub fn query(&self, sql: &str) -> Vec<Vec<String>> {
+        self.try_query(sql).unwrap()
+    }
+
+    /// Rows of a query against the project's store, or the store's error.
+    pub fn try_query(&self, sql: &str) -> Result<Vec<Vec<String>>, sqlx::Error> {
         let url = format!(
             "sqlite://{}?mode=ro",
             self.project_dir().join("orch.db").display()
@@ -276,8 +288,10 @@ impl Project {
             .unwrap();
         runtime.block_on(async {
             use sqlx::Row;
-            let pool = sqlx::SqlitePool::connect(&url).await.unwrap();
-            let rows = sqlx::query(sql).fetch_all(&pool).await.unwrap();
+            let pool = sqlx::SqlitePool::connect(&url).await?;
+            let rows = sqlx::query(sql).fetch_all(&pool).await;
+            pool.close().await;
+            let rows = rows?;
             let out = rows
                 .iter()
                 .map(|row| {
@@ -291,8 +305,7 @@ impl Project {
                         .collect()
                 })
                 .collect();
-            pool.close().await;
-            out
+            Ok(out)
         })
     }
 }

@@ -78,6 +78,17 @@ pub trait Executor {
     /// number of jobs still being terminated.
     fn tidy(&mut self) -> usize;
 
+    /// After [`Executor::terminate`]: tidies until no job is being terminated any more,
+    /// or for at most the local grace before SIGKILL ([`local::TERMINATION_GRACE`]) and
+    /// 2 s more for the killed processes to be reaped.
+    async fn wait_for_terminations(&mut self) {
+        let deadline =
+            std::time::Instant::now() + local::TERMINATION_GRACE + Duration::from_secs(2);
+        while self.tidy() > 0 && std::time::Instant::now() < deadline {
+            tokio::time::sleep(Duration::from_millis(50)).await;
+        }
+    }
+
     /// True once nothing of the job of `handle` runs any more, so that its run
     /// directory can be used by the next attempt.
     fn is_gone(&self, handle: &str) -> bool;

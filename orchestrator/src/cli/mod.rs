@@ -1009,12 +1009,7 @@ async fn cancel(project_dir: Option<&Path>, name: &str) -> anyhow::Result<i32> {
             // so `orch resume` continues the run), SIGKILL after the grace.
             let mut executor = LocalExecutor::new();
             executor.terminate(&running).await;
-            let deadline = std::time::Instant::now()
-                + crate::executor::local::TERMINATION_GRACE
-                + std::time::Duration::from_secs(2);
-            while executor.tidy() > 0 && std::time::Instant::now() < deadline {
-                tokio::time::sleep(std::time::Duration::from_millis(50)).await;
-            }
+            executor.wait_for_terminations().await;
             format!("{} running solvers stopped", running.len())
         }
     };

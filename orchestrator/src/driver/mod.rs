@@ -195,7 +195,7 @@ async fn drive_with<E: Executor>(
         }
     };
     // Jobs killed for their time limit must be gone before orch reports and exits.
-    driver.wait_for_terminations().await;
+    driver.executor.wait_for_terminations().await;
     if let Some(calls) = driver.executor.calls() {
         tracing::info!(
             "{calls} calls in {:.1} s",
@@ -921,7 +921,7 @@ impl<E: Executor> Driver<'_, E> {
         self.apply(&jobs.iter().collect::<Vec<_>>(), actions)
             .await?;
         if !self.budgets.batch {
-            self.wait_for_terminations().await;
+            self.executor.wait_for_terminations().await;
         }
         Ok(Ending::Interrupted)
     }
@@ -932,16 +932,8 @@ impl<E: Executor> Driver<'_, E> {
         let actions = decide::on_cancel(&jobs);
         self.apply(&jobs.iter().collect::<Vec<_>>(), actions)
             .await?;
-        self.wait_for_terminations().await;
+        self.executor.wait_for_terminations().await;
         Ok(Ending::Cancelled)
-    }
-
-    async fn wait_for_terminations(&mut self) {
-        let deadline =
-            Instant::now() + crate::executor::local::TERMINATION_GRACE + Duration::from_secs(2);
-        while self.executor.tidy() > 0 && Instant::now() < deadline {
-            tokio::time::sleep(Duration::from_millis(50)).await;
-        }
     }
 
     fn report(&self, job: &JobRow, message: &str) {

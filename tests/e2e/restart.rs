@@ -111,13 +111,8 @@ fn a_native_job_cancelled_from_another_shell_saves_its_state_and_resume_continue
     // Cancel once the first job has logged a few rows, early in its run.
     let waited = std::time::Instant::now();
     let run_dir = loop {
-        // The store's file exists before its tables: until they do, no job has started.
-        let stored = project.project_dir().join("orch.db").exists();
-        let dirs = if stored {
-            project.try_run_dirs("resumed").unwrap_or_default()
-        } else {
-            Vec::new()
-        };
+        // Until the store and its tables exist (the file comes first), no job has started.
+        let dirs = project.try_run_dirs("resumed").unwrap_or_default();
         let running = dirs.into_iter().find(|dir| thermo_rows(dir) >= 5);
         if let Some(dir) = running {
             break dir;

@@ -52,6 +52,12 @@ enum Command {
         /// file lies continues from it, bit for bit.
         #[arg(long, default_value = "10min", env = "ORCH_DEM_RESTART_EVERY")]
         restart_every: humantime::Duration,
+        /// Pause once the simulated time reaches this, s: save the state to the restart
+        /// file and exit 0. Running the same case again (with a later `--stop-at`, or
+        /// none) continues from there, bit for bit, and each leg prints its own wall
+        /// time and particle-steps per second, so a window of a run can be timed alone.
+        #[arg(long, value_name = "SECONDS")]
+        stop_at: Option<f64>,
     },
     /// Run the same case (the hopper, or a settled bed from one packing file) on the
     /// native kernel and on LIGGGHTS and LAMMPS, on 1 and 2 cores, at one or more
@@ -70,6 +76,17 @@ enum Command {
     },
 }
 
+/// A leg's figures for the line `orch-dem run` prints at its end.
+fn leg_figures(leg: &run::Leg) -> String {
+    format!(
+        "this leg: {} steps, {} particle-steps in {:.3} s of loop, {:.4e} particle-steps/s",
+        leg.steps,
+        leg.particle_steps,
+        leg.loop_time.as_secs_f64(),
+        leg.throughput()
+    )
+}
+
 fn main() {
     let args = Args::parse();
     let result = match args.command {
@@ -78,20 +95,31 @@ fn main() {
             log,
             threads,
             restart_every,
-        } => run::run(&case, &log, threads.max(1), restart_every.into()).map(|s| {
-            println!(
-                "orch-dem: {} steps, {:.4e} particle-steps/s, {} particles left, {:.4e} kg discharged{}",
-                s.steps,
-                s.throughput(),
-                s.remaining,
-                s.discharged_mass_kg,
-                if s.stopped_by_stop_file {
-                    ", stopped by the case's stop file"
-                } else {
-                    ""
-                }
-            );
-        }),
+            stop_at,
+        } => run::run_until(&case, &log, threads.max(1), restart_every.into(), stop_at).map(
+            |end| match end {
+                run::RunEnd::Finished(s) => println!(
+                    "orch-dem: {} steps, {:.4e} particle-steps/s, {} particles left, {:.4e} kg discharged{}; {}",
+                    s.steps,
+                    s.throughput(),
+                    s.remaining,
+                    s.discharged_mass_kg,
+                    if s.stopped_by_stop_file {
+                        ", stopped by the case's stop file"
+                    } else {
+                        ""
+                    },
+                    leg_figures(&s.leg)
+                ),
+                run::RunEnd::Paused(p) => println!(
+                    "orch-dem: paused at step {} (t = {:.6} s) as --stop-at asked, the state saved in {}: run the same case again to continue; {}",
+                    p.step,
+                    p.time_s,
+                    p.restart_file.display(),
+                    leg_figures(&p.leg)
+                ),
+            },
+        ),
         Command::Bench(args) => bench::bench(&args),
         Command::Verify { dir, threads } => rayon::ThreadPoolBuilder::new()
             .num_threads(threads.max(1))

@@ -45,6 +45,48 @@ pub struct StoppedBySignal {
     pub restart_file: PathBuf,
 }
 
+/// A run paused by `--stop-at`: its state saved at the first step at or after the
+/// asked time, to be continued by running the same case again.
+#[derive(Debug, Clone)]
+pub struct Paused {
+    /// The last step taken.
+    pub step: u64,
+    /// Simulated time at that step, s.
+    pub time_s: f64,
+    /// The restart file holding the state at that step.
+    pub restart_file: PathBuf,
+    /// What this leg of the run (since it started or continued) measured.
+    pub leg: Leg,
+}
+
+/// One leg of a run: from its start or the restart file it continued from, to its end
+/// or pause. Timing a leg times a window of simulated time on its own.
+#[derive(Debug, Clone, Copy)]
+pub struct Leg {
+    /// Wall time of this leg's time loop.
+    pub loop_time: Duration,
+    /// Steps taken in this leg.
+    pub steps: u64,
+    /// Σ particles × steps of this leg.
+    pub particle_steps: u64,
+}
+
+impl Leg {
+    /// Particle-steps per second of wall time in this leg.
+    pub fn throughput(&self) -> f64 {
+        self.particle_steps as f64 / self.loop_time.as_secs_f64()
+    }
+}
+
+/// How a run that did not fail ended.
+#[derive(Debug, Clone)]
+pub enum RunEnd {
+    /// It reached its end time (or its stop file or stop condition ended it).
+    Finished(RunSummary),
+    /// `--stop-at` paused it, its state saved.
+    Paused(Paused),
+}
+
 /// What a finished run measured.
 #[derive(Debug, Clone)]
 pub struct RunSummary {
@@ -62,6 +104,8 @@ pub struct RunSummary {
     pub discharged_mass_kg: f64,
     /// Whether the case's `stop_file` ended the run before `end_time`.
     pub stopped_by_stop_file: bool,
+    /// The last leg alone (the whole run unless it continued from a restart file).
+    pub leg: Leg,
 }
 
 impl RunSummary {
@@ -170,12 +214,22 @@ fn inflow_report(simulation: &Simulation, type_names: &[&str]) -> Vec<InflowLine
 /// restart file (see [`restart`]) at the first log line after each `restart_every` of
 /// wall time; a run started where the restart file of the same case lies continues
 /// from it. A run that ends (finished, stopped, or unstable) removes its restart file.
-pub fn run(
+///
+/// With `stop_at_s` before the case's end, the run pauses at the first step at or
+/// after that simulated time (s): the state is saved to the restart file as a stop
+/// signal saves it, and running the same case again continues from there, bit for bit.
+pub fn run_until(
     case_path: &Path,
     log_path: &Path,
     threads: usize,
     restart_every: Duration,
-) -> anyhow::Result<RunSummary> {
+    stop_at_s: Option<f64>,
+) -> anyhow::Result<RunEnd> {
+    if let Some(t) = stop_at_s.filter(|t| !(t.is_finite() && *t > 0.0)) {
+        anyhow::bail!(
+            "--stop-at {t}: expected a positive simulated time in seconds; give one, or leave it out to run to the case's end time"
+        );
+    }
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
@@ -239,6 +293,16 @@ pub fn run(
     }
     let dt = simulation.config().timestep_s;
     let steps = (case.run.end_time / dt).round() as u64;
+    let stop_step = stop_at_s.map(|t| (t / dt).ceil() as u64);
+    if let Some(stop_step) = stop_step.filter(|&s| s <= simulation.step_count()) {
+        anyhow::bail!(
+            "--stop-at {} s: the run is already at step {} (t = {:.6} s), past step {stop_step}; give a later time, or leave it out to run to the end",
+            stop_at_s.unwrap_or_default(),
+            simulation.step_count(),
+            simulation.time_s()
+        );
+    }
+    let (first_step, first_particle_steps) = (simulation.step_count(), simulation.particle_steps());
     let thermo = |log: &mut BufWriter<File>, s: &Simulation| -> std::io::Result<()> {
         writeln!(
             log,
@@ -277,7 +341,8 @@ pub fn run(
     let fingerprint = || restart::fingerprint(case_path, &case);
     let signals = StopSignals::watch().context("cannot watch for SIGTERM and SIGINT")?;
     let mut stopped_by_stop_file = false;
-    let outcome = pool.install(|| -> anyhow::Result<()> {
+    // `Ok(true)`: paused by `--stop-at`, its state saved.
+    let outcome = pool.install(|| -> anyhow::Result<bool> {
         // The other threads poll for the next pass instead of sleeping between passes.
         let _awake = AwakeWorkers::start();
         while simulation.step_count() < steps {
@@ -332,13 +397,45 @@ pub fn run(
                 log.flush()?;
                 return Err(stopped.into());
             }
+            if stop_step.is_some_and(|s| step >= s) && step < steps {
+                let loop_s = earlier_loop_s + started.elapsed().as_secs_f64();
+                saves.save(
+                    &restart_path,
+                    fingerprint,
+                    &mut log,
+                    &mut crossings,
+                    loop_s,
+                    &simulation,
+                )?;
+                // After the save: a run continued from it cuts this line off again.
+                writeln!(
+                    log,
+                    "Paused by --stop-at at step {step} (t = {:.6} s), its state saved in {}: run the same case again to continue",
+                    simulation.time_s(),
+                    restart_path.display()
+                )?;
+                log.flush()?;
+                return Ok(true);
+            }
         }
-        Ok(())
+        Ok(false)
     });
     let leg_time = started.elapsed();
     let loop_time = Duration::from_secs_f64(earlier_loop_s) + leg_time;
     crossings.flush()?;
-    outcome?;
+    let leg = Leg {
+        loop_time: leg_time,
+        steps: simulation.step_count() - first_step,
+        particle_steps: simulation.particle_steps() - first_particle_steps,
+    };
+    if outcome? {
+        return Ok(RunEnd::Paused(Paused {
+            step: simulation.step_count(),
+            time_s: simulation.time_s(),
+            restart_file: restart_path,
+            leg,
+        }));
+    }
     // The run has ended: nothing to continue from.
     end_notes.extend(remove_restart_files(&restart_path, &saves.list.0));
     thermo(&mut log, &simulation)?;
@@ -350,6 +447,7 @@ pub fn run(
         remaining: simulation.remaining(),
         discharged_mass_kg: simulation.discharged_mass_kg(),
         stopped_by_stop_file,
+        leg,
     };
     let loop_line = orch_adapters::native::LoopLine {
         seconds: loop_time.as_secs_f64(),
@@ -420,7 +518,7 @@ pub fn run(
         summary.throughput()
     )?;
     log.flush()?;
-    Ok(summary)
+    Ok(RunEnd::Finished(summary))
 }
 
 /// Creates (or empties) the output file at `path`, `what` for the error.
@@ -659,6 +757,19 @@ z = 0.0
 dump_every = 50
 "#;
 
+    /// [`run_until`] to the case's end.
+    fn run(
+        case_path: &Path,
+        log_path: &Path,
+        threads: usize,
+        restart_every: Duration,
+    ) -> anyhow::Result<RunSummary> {
+        match run_until(case_path, log_path, threads, restart_every, None)? {
+            RunEnd::Finished(summary) => Ok(summary),
+            RunEnd::Paused(paused) => panic!("a run without --stop-at paused: {paused:?}"),
+        }
+    }
+
     /// Runs `CASE` in a fresh folder, with its stop file there from the start when
     /// `stop_file_present`; returns the folder, the summary and the log's text.
     fn run_case(stop_file_present: bool) -> (tempfile::TempDir, RunSummary, String) {
@@ -710,6 +821,113 @@ dump_every = 50
             assert_eq!(read.snapshots, 1);
         }
         dumps
+    }
+
+    /// The log's thermo rows (the lines after its header, which names the case's
+    /// folder, up to its loop line), and every file under `post/` with its bytes.
+    fn run_record(dir: &Path) -> (Vec<String>, Vec<(String, Vec<u8>)>) {
+        let log = std::fs::read_to_string(dir.join("log.native")).unwrap();
+        let rows = log
+            .lines()
+            .skip(1)
+            .take_while(|l| !l.starts_with("Loop time"))
+            .map(str::to_string)
+            .collect();
+        let mut files: Vec<(String, Vec<u8>)> = std::fs::read_dir(dir.join("post"))
+            .unwrap()
+            .map(|e| {
+                let e = e.unwrap();
+                (
+                    e.file_name().into_string().unwrap(),
+                    std::fs::read(e.path()).unwrap(),
+                )
+            })
+            .collect();
+        files.sort();
+        (rows, files)
+    }
+
+    #[test]
+    fn a_run_paused_by_stop_at_and_continued_in_legs_is_the_straight_run_bit_for_bit() {
+        let (straight_dir, straight, _) = run_case(false);
+        let dir = tempfile::tempdir().unwrap();
+        let case = dir.path().join("case.toml");
+        std::fs::write(&case, CASE).unwrap();
+        let log = dir.path().join("log.native");
+        let every = Duration::from_secs(600);
+        // Before the sphere crosses the sensor (step 40 or so), then mid-run, then on.
+        let mut legs = Vec::new();
+        for (stop_at, paused_step) in [(0.002, 20), (0.1, 1000)] {
+            match run_until(&case, &log, 1, every, Some(stop_at)).unwrap() {
+                RunEnd::Paused(paused) => {
+                    assert_eq!(paused.step, paused_step);
+                    assert!(paused.restart_file.exists());
+                    legs.push(paused.leg);
+                }
+                RunEnd::Finished(s) => panic!("not paused at {stop_at} s: {s:?}"),
+            }
+            let text = std::fs::read_to_string(&log).unwrap();
+            assert!(text.contains("Paused by --stop-at at step"), "{text}");
+        }
+        let finished = match run_until(&case, &log, 1, every, None).unwrap() {
+            RunEnd::Finished(summary) => summary,
+            RunEnd::Paused(p) => panic!("paused without --stop-at: {p:?}"),
+        };
+        legs.push(finished.leg);
+        assert_eq!(
+            legs.iter().map(|l| l.steps).collect::<Vec<_>>(),
+            [20, 980, 1000]
+        );
+        let leg_sum: u64 = legs.iter().map(|l| l.particle_steps).sum();
+        assert_eq!(leg_sum, straight.particle_steps);
+        assert_eq!(finished.particle_steps, straight.particle_steps);
+        // The pause lines were cut off on continuing; outputs are the straight run's.
+        let text = std::fs::read_to_string(&log).unwrap();
+        assert!(!text.contains("Paused by --stop-at"), "{text}");
+        let (rows, files) = run_record(dir.path());
+        let (straight_rows, straight_files) = run_record(straight_dir.path());
+        assert_eq!(rows, straight_rows);
+        let names =
+            |files: &[(String, Vec<u8>)]| files.iter().map(|f| f.0.clone()).collect::<Vec<_>>();
+        assert_eq!(names(&files), names(&straight_files));
+        for (ours, theirs) in files.iter().zip(&straight_files) {
+            assert!(
+                ours.1 == theirs.1,
+                "{} differs from the straight run's",
+                ours.0
+            );
+        }
+        check_outputs(dir.path(), &finished);
+    }
+
+    #[test]
+    fn stop_at_that_is_not_ahead_of_the_run_is_refused_and_changes_nothing() {
+        let dir = tempfile::tempdir().unwrap();
+        let case = dir.path().join("case.toml");
+        std::fs::write(&case, CASE).unwrap();
+        let log = dir.path().join("log.native");
+        let every = Duration::from_secs(600);
+        for bad in [0.0, -1.0, f64::NAN] {
+            let error = run_until(&case, &log, 1, every, Some(bad)).unwrap_err();
+            assert!(
+                error
+                    .to_string()
+                    .contains("expected a positive simulated time"),
+                "{error}"
+            );
+        }
+        assert!(!log.exists(), "a refused --stop-at wrote the log");
+        run_until(&case, &log, 1, every, Some(0.05)).unwrap();
+        let saved = std::fs::read(dir.path().join("post").join(restart::RESTART_FILE)).unwrap();
+        let error = run_until(&case, &log, 1, every, Some(0.03)).unwrap_err();
+        assert!(
+            error
+                .to_string()
+                .contains("past step 300; give a later time"),
+            "{error}"
+        );
+        let kept = std::fs::read(dir.path().join("post").join(restart::RESTART_FILE)).unwrap();
+        assert_eq!(saved, kept, "the refused leg changed the restart file");
     }
 
     #[test]

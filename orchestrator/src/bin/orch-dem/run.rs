@@ -371,10 +371,12 @@ pub fn run_until(
             if stop {
                 break;
             }
-            // A stop signal saves at this step; otherwise a save is due at a log line.
+            // A stop signal or `--stop-at` saves at this step; otherwise a save is due
+            // at a log line.
             let signal = signals.received().filter(|_| step < steps);
+            let pause = stop_step.is_some_and(|s| step >= s) && step < steps;
             let logged = step.is_multiple_of(case.run.thermo_every.max(1));
-            if signal.is_some() || (logged && saves.due(restart_every)) {
+            if signal.is_some() || pause || (logged && saves.due(restart_every)) {
                 let loop_s = earlier_loop_s + started.elapsed().as_secs_f64();
                 saves.save(
                     &restart_path,
@@ -385,6 +387,8 @@ pub fn run_until(
                     &simulation,
                 )?;
             }
+            // After the save, the line saying why: a run continued from it cuts the
+            // line off again.
             if let Some(signal) = signal {
                 let stopped = StoppedBySignal {
                     signal,
@@ -392,22 +396,11 @@ pub fn run_until(
                     time_s: simulation.time_s(),
                     restart_file: restart_path.clone(),
                 };
-                // After the save: a run continued from it cuts this line off again.
                 writeln!(log, "{stopped}")?;
                 log.flush()?;
                 return Err(stopped.into());
             }
-            if stop_step.is_some_and(|s| step >= s) && step < steps {
-                let loop_s = earlier_loop_s + started.elapsed().as_secs_f64();
-                saves.save(
-                    &restart_path,
-                    fingerprint,
-                    &mut log,
-                    &mut crossings,
-                    loop_s,
-                    &simulation,
-                )?;
-                // After the save: a run continued from it cuts this line off again.
+            if pause {
                 writeln!(
                     log,
                     "Paused by --stop-at at step {step} (t = {:.6} s), its state saved in {}: run the same case again to continue",

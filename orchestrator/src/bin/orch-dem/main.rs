@@ -112,11 +112,12 @@ fn main() {
                     leg_figures(&s.leg)
                 ),
                 run::RunEnd::Paused(p) => println!(
-                    "orch-dem: paused at step {} (t = {:.6} s) as --stop-at asked, the state saved in {}: run the same case again to continue; {}",
+                    "orch-dem: paused at step {} (t = {:.6} s) as --stop-at asked, the state saved in {}: run the same case again to continue; {}\norch-dem: this leg's {}",
                     p.step,
                     p.time_s,
                     p.restart_file.display(),
-                    leg_figures(&p.leg)
+                    leg_figures(&p.leg),
+                    p.stages
                 ),
             },
         ),

@@ -57,6 +57,8 @@ pub struct Paused {
     pub restart_file: PathBuf,
     /// What this leg of the run (since it started or continued) measured.
     pub leg: Leg,
+    /// This leg's `Stage times` line (see [`profile`]).
+    pub stages: String,
 }
 
 /// One leg of a run: from its start or the restart file it continued from, to its end
@@ -341,8 +343,8 @@ pub fn run_until(
     let fingerprint = || restart::fingerprint(case_path, &case);
     let signals = StopSignals::watch().context("cannot watch for SIGTERM and SIGINT")?;
     let mut stopped_by_stop_file = false;
-    // `Ok(true)`: paused by `--stop-at`, its state saved.
-    let outcome = pool.install(|| -> anyhow::Result<bool> {
+    // `Ok(Some(stages))`: paused by `--stop-at`, its state saved; the leg's stage times.
+    let outcome = pool.install(|| -> anyhow::Result<Option<String>> {
         // The other threads poll for the next pass instead of sleeping between passes.
         let _awake = AwakeWorkers::start();
         while simulation.step_count() < steps {
@@ -407,11 +409,14 @@ pub fn run_until(
                     simulation.time_s(),
                     restart_path.display()
                 )?;
+                // This leg's stages (the timers start from zero in each leg).
+                let stages = profile(&simulation.timers(), started.elapsed());
+                writeln!(log, "{stages}")?;
                 log.flush()?;
-                return Ok(true);
+                return Ok(Some(stages));
             }
         }
-        Ok(false)
+        Ok(None)
     });
     let leg_time = started.elapsed();
     let loop_time = Duration::from_secs_f64(earlier_loop_s) + leg_time;
@@ -421,12 +426,13 @@ pub fn run_until(
         steps: simulation.step_count() - first_step,
         particle_steps: simulation.particle_steps() - first_particle_steps,
     };
-    if outcome? {
+    if let Some(stages) = outcome? {
         return Ok(RunEnd::Paused(Paused {
             step: simulation.step_count(),
             time_s: simulation.time_s(),
             restart_file: restart_path,
             leg,
+            stages,
         }));
     }
     // The run has ended: nothing to continue from.
@@ -860,7 +866,11 @@ dump_every = 50
                 RunEnd::Finished(s) => panic!("not paused at {stop_at} s: {s:?}"),
             }
             let text = std::fs::read_to_string(&log).unwrap();
-            assert!(text.contains("Paused by --stop-at at step"), "{text}");
+            let pause = text.find("\nPaused by --stop-at at step").expect(&text);
+            assert!(
+                text[pause..].contains("\nStage times: pair forces "),
+                "{text}"
+            );
         }
         let finished = match run_until(&case, &log, 1, every, None).unwrap() {
             RunEnd::Finished(summary) => summary,
@@ -877,6 +887,7 @@ dump_every = 50
         // The pause lines were cut off on continuing; outputs are the straight run's.
         let text = std::fs::read_to_string(&log).unwrap();
         assert!(!text.contains("Paused by --stop-at"), "{text}");
+        assert_eq!(text.matches("Stage times: ").count(), 1, "{text}");
         let (rows, files) = run_record(dir.path());
         let (straight_rows, straight_files) = run_record(straight_dir.path());
         assert_eq!(rows, straight_rows);

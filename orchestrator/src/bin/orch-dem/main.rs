@@ -100,8 +100,8 @@ fn main() {
             |end| match end {
                 run::RunEnd::Finished(s) => println!(
                     "orch-dem: {} steps, {:.4e} particle-steps/s, {} particles left, {:.4e} kg discharged{}; {}",
-                    s.steps,
-                    s.throughput(),
+                    s.whole.steps,
+                    s.whole.throughput(),
                     s.remaining,
                     s.discharged_mass_kg,
                     if s.stopped_by_stop_file {

@@ -61,20 +61,21 @@ pub struct Paused {
     pub stages: String,
 }
 
-/// One leg of a run: from its start or the restart file it continued from, to its end
-/// or pause. Timing a leg times a window of simulated time on its own.
+/// The time loop's wall time and work over a stretch of a run: one leg (from its
+/// start or the restart file it continued from, to its end or pause; timing a leg
+/// times a window of simulated time on its own), or the whole run.
 #[derive(Debug, Clone, Copy)]
 pub struct Leg {
-    /// Wall time of this leg's time loop.
+    /// Wall time of the time loop over the stretch.
     pub loop_time: Duration,
-    /// Steps taken in this leg.
+    /// Steps taken.
     pub steps: u64,
-    /// Σ particles × steps of this leg.
+    /// Σ particles × steps.
     pub particle_steps: u64,
 }
 
 impl Leg {
-    /// Particle-steps per second of wall time in this leg.
+    /// Particle-steps per second of wall time.
     pub fn throughput(&self) -> f64 {
         self.particle_steps as f64 / self.loop_time.as_secs_f64()
     }
@@ -92,12 +93,9 @@ pub enum RunEnd {
 /// What a finished run measured.
 #[derive(Debug, Clone)]
 pub struct RunSummary {
-    /// Wall time of the time loop.
-    pub loop_time: Duration,
-    /// Steps taken.
-    pub steps: u64,
-    /// Σ particles × steps.
-    pub particle_steps: u64,
+    /// The whole run, over every leg (the same as `leg` unless it continued from a
+    /// restart file).
+    pub whole: Leg,
     /// Time per stage.
     pub timers: StageTimers,
     /// Particles left at the end.
@@ -108,13 +106,6 @@ pub struct RunSummary {
     pub stopped_by_stop_file: bool,
     /// The last leg alone (the whole run unless it continued from a restart file).
     pub leg: Leg,
-}
-
-impl RunSummary {
-    /// Particle-steps per second of wall time.
-    pub fn throughput(&self) -> f64 {
-        self.particle_steps as f64 / self.loop_time.as_secs_f64()
-    }
 }
 
 /// Reads `case_path`, the meshes, the packing and the air velocity field it names (relative to its
@@ -439,9 +430,11 @@ pub fn run_until(
     end_notes.extend(remove_restart_files(&restart_path, &saves.list.0));
     thermo(&mut log, &simulation)?;
     let summary = RunSummary {
-        loop_time,
-        steps: simulation.step_count(),
-        particle_steps: simulation.particle_steps(),
+        whole: Leg {
+            loop_time,
+            steps: simulation.step_count(),
+            particle_steps: simulation.particle_steps(),
+        },
         timers: simulation.timers(),
         remaining: simulation.remaining(),
         discharged_mass_kg: simulation.discharged_mass_kg(),
@@ -451,8 +444,8 @@ pub fn run_until(
     let loop_line = orch_adapters::native::LoopLine {
         seconds: loop_time.as_secs_f64(),
         threads,
-        steps: summary.steps,
-        particle_steps: summary.particle_steps as f64,
+        steps: summary.whole.steps,
+        particle_steps: summary.whole.particle_steps as f64,
     };
     writeln!(log, "{loop_line}")?;
     writeln!(log, "{}", profile(&summary.timers, leg_time))?;
@@ -498,7 +491,7 @@ pub fn run_until(
             log,
             "Stopped by the stop file {} at step {} (t = {:.6} s), before the end time {} s",
             file.display(),
-            summary.steps,
+            summary.whole.steps,
             simulation.time_s(),
             case.run.end_time
         )?;
@@ -506,7 +499,7 @@ pub fn run_until(
     writeln!(
         log,
         "ORCH-DEM DONE at step {} (t = {:.6} s) with {} particles left",
-        summary.steps,
+        summary.whole.steps,
         simulation.time_s(),
         summary.remaining
     )?;
@@ -514,7 +507,7 @@ pub fn run_until(
     writeln!(
         log,
         "Performance: {:.4e} particle-steps/s on {threads} threads",
-        summary.throughput()
+        summary.whole.throughput()
     )?;
     log.flush()?;
     Ok(RunEnd::Finished(summary))
@@ -769,16 +762,23 @@ dump_every = 50
         }
     }
 
+    /// A fresh folder holding `case_text` as `case.toml`; returns the folder, the case
+    /// file's path and the log's (not yet written).
+    fn case_folder(case_text: &str) -> (tempfile::TempDir, PathBuf, PathBuf) {
+        let dir = tempfile::tempdir().unwrap();
+        let case = dir.path().join("case.toml");
+        std::fs::write(&case, case_text).unwrap();
+        let log = dir.path().join("log.native");
+        (dir, case, log)
+    }
+
     /// Runs `CASE` in a fresh folder, with its stop file there from the start when
     /// `stop_file_present`; returns the folder, the summary and the log's text.
     fn run_case(stop_file_present: bool) -> (tempfile::TempDir, RunSummary, String) {
-        let dir = tempfile::tempdir().unwrap();
-        let case = dir.path().join("case.toml");
-        std::fs::write(&case, CASE).unwrap();
+        let (dir, case, log) = case_folder(CASE);
         if stop_file_present {
             std::fs::write(dir.path().join("STOP"), "").unwrap();
         }
-        let log = dir.path().join("log.native");
         let summary = run(&case, &log, 1, Duration::from_secs(600)).unwrap();
         let text = std::fs::read_to_string(&log).unwrap();
         (dir, summary, text)
@@ -789,9 +789,9 @@ dump_every = 50
     fn check_outputs(dir: &Path, summary: &RunSummary) -> Vec<u64> {
         let log_path = dir.join("log.native");
         let log = read_log(BufReader::new(File::open(&log_path).unwrap()), &log_path).unwrap();
-        assert_eq!(log.steps, summary.steps);
+        assert_eq!(log.steps, summary.whole.steps);
         let last = *log.kinetic_energy.last().unwrap();
-        assert_eq!(last.0, summary.steps as f64 * 1e-4);
+        assert_eq!(last.0, summary.whole.steps as f64 * 1e-4);
         let crossings_path = dir.join("post/crossings.csv");
         let crossings = read_crossings(
             BufReader::new(File::open(&crossings_path).unwrap()),
@@ -849,10 +849,7 @@ dump_every = 50
     #[test]
     fn a_run_paused_by_stop_at_and_continued_in_legs_is_the_straight_run_bit_for_bit() {
         let (straight_dir, straight, _) = run_case(false);
-        let dir = tempfile::tempdir().unwrap();
-        let case = dir.path().join("case.toml");
-        std::fs::write(&case, CASE).unwrap();
-        let log = dir.path().join("log.native");
+        let (dir, case, log) = case_folder(CASE);
         let every = Duration::from_secs(600);
         // Before the sphere crosses the sensor (step 40 or so), then mid-run, then on.
         let mut legs = Vec::new();
@@ -882,8 +879,8 @@ dump_every = 50
             [20, 980, 1000]
         );
         let leg_sum: u64 = legs.iter().map(|l| l.particle_steps).sum();
-        assert_eq!(leg_sum, straight.particle_steps);
-        assert_eq!(finished.particle_steps, straight.particle_steps);
+        assert_eq!(leg_sum, straight.whole.particle_steps);
+        assert_eq!(finished.whole.particle_steps, straight.whole.particle_steps);
         // The pause lines were cut off on continuing; outputs are the straight run's.
         let text = std::fs::read_to_string(&log).unwrap();
         assert!(!text.contains("Paused by --stop-at"), "{text}");
@@ -906,10 +903,7 @@ dump_every = 50
 
     #[test]
     fn stop_at_that_is_not_ahead_of_the_run_is_refused_and_changes_nothing() {
-        let dir = tempfile::tempdir().unwrap();
-        let case = dir.path().join("case.toml");
-        std::fs::write(&case, CASE).unwrap();
-        let log = dir.path().join("log.native");
+        let (dir, case, log) = case_folder(CASE);
         let every = Duration::from_secs(600);
         for bad in [0.0, -1.0, f64::NAN] {
             let error = run_until(&case, &log, 1, every, Some(bad)).unwrap_err();
@@ -936,10 +930,7 @@ dump_every = 50
 
     #[test]
     fn a_run_saves_its_state_at_log_lines_and_removes_the_restart_file_when_it_ends() {
-        let dir = tempfile::tempdir().unwrap();
-        let case = dir.path().join("case.toml");
-        std::fs::write(&case, CASE).unwrap();
-        let log_path = dir.path().join("log.native");
+        let (dir, case, log_path) = case_folder(CASE);
         let summary = run(&case, &log_path, 1, Duration::ZERO).unwrap();
         let log = std::fs::read_to_string(&log_path).unwrap();
         // 2000 steps, a log line every 100: a save at each.
@@ -978,7 +969,7 @@ dump_every = 50
                 restart_file.display()
             );
             assert!(log.contains(&note), "{log}");
-            assert_eq!(summary.steps, 2000);
+            assert_eq!(summary.whole.steps, 2000);
             check_outputs(dir.path(), &summary);
             assert!(!restart_file.exists());
         }
@@ -988,7 +979,7 @@ dump_every = 50
     fn a_stop_file_present_from_the_start_ends_the_run_at_the_first_check() {
         let (dir, summary, log) = run_case(true);
         assert!(summary.stopped_by_stop_file);
-        assert_eq!(summary.steps, 100);
+        assert_eq!(summary.whole.steps, 100);
         assert_eq!(check_outputs(dir.path(), &summary), [50, 100]);
         let stop_file = dir.path().join("STOP");
         let line = format!(
@@ -1114,7 +1105,7 @@ dump_every = 50
     fn without_its_stop_file_a_run_reaches_its_end_time() {
         let (dir, summary, log) = run_case(false);
         assert!(!summary.stopped_by_stop_file);
-        assert_eq!(summary.steps, 2000);
+        assert_eq!(summary.whole.steps, 2000);
         let dumps = check_outputs(dir.path(), &summary);
         assert_eq!(dumps.len(), 40);
         assert_eq!(dumps.last(), Some(&2000));
